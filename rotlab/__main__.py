@@ -1,0 +1,3 @@
+from rotlab.cli import main
+
+main()

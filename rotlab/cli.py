@@ -1,0 +1,131 @@
+"""rotlab's command line.  Heavy modules (numpy, numba, rerun) are imported inside the
+commands that need them, so ``rotlab --help`` stays fast."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from rotlab import __version__
+
+app = typer.Typer(
+    name="rotlab",
+    help="A laboratory for the rotation of a rigid body about a fixed point.",
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+
+TEMPLATE_KINDS = ("euler", "lagrange", "general")
+
+
+def _fail(exc: Exception) -> None:
+    """Print one line to stderr and exit with the error's code (2 bad input, 1 run failure)."""
+    typer.echo(f"rotlab: error: {exc}", err=True)
+    raise typer.Exit(getattr(exc, "exit_code", 1))
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"rotlab {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main_options(
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Show the version and exit.")] = False,
+) -> None:
+    """A laboratory for the rotation of a rigid body about a fixed point."""
+
+
+@app.command()
+def run(
+    config: Annotated[Path, typer.Argument(help="Scenario TOML file.")],
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Recording to write (default: <config name>.rrd).")] = None,
+    method: Annotated[Optional[str], typer.Option("--method", help="Override solver.method (auto, rk4, dop853).")] = None,
+    duration: Annotated[Optional[float], typer.Option("--duration", help="Override the span: end = start + DURATION seconds.")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No summary, no progress bar.")] = False,
+) -> None:
+    """Simulate a scenario and write a Rerun recording (.rrd)."""
+    from rotlab.errors import InputError, RunFailure
+
+    try:
+        _run(config, output, method, duration, quiet)
+    except (InputError, RunFailure) as exc:
+        _fail(exc)
+
+
+def _run(config: Path, output: Path | None, method: str | None, duration: float | None, quiet: bool) -> None:
+    import time
+
+    from rotlab import api
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.progress import ProgressBar
+    from rotlab.recording.writer import check_output_path, write_recording
+    from rotlab.scene.scene import build_scene
+    from rotlab.summary import summary_lines
+
+    started = time.perf_counter()
+    if duration is not None and not (duration > 0 and duration < float("inf")):
+        raise InputError("--duration", f"must be a positive number of seconds (got {duration})")
+    scenario = api.load(config, method=method, duration=duration)
+    target = output or Path(scenario.output.path or f"{config.stem}.rrd")
+    check_output_path(target)
+    scene = build_scene(scenario)
+    bar = None if quiet else ProgressBar(f"{config.name}")
+    try:
+        traj = api.run_scene(scene, progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    write_recording(traj, target)
+    if not quiet:
+        for line in summary_lines(traj, config, target, time.perf_counter() - started):
+            typer.echo(line)
+    if traj.stats.failure:
+        raise RunFailure(f"{config}: run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid samples are in {target}")
+
+
+@app.command()
+def validate(configs: Annotated[list[Path], typer.Argument(help="Scenario TOML files.")]) -> None:
+    """Check scenario files without running them (one line per file)."""
+    from rotlab.config import load_scenario
+    from rotlab.errors import InputError
+
+    failed = 0
+    for path in configs:
+        try:
+            scenario = load_scenario(path)
+            typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
+        except InputError as exc:
+            failed += 1
+            typer.echo(f"rotlab: error: {exc}", err=True)
+    if failed:
+        raise typer.Exit(2)
+
+
+@app.command()
+def new(kind: Annotated[str, typer.Argument(help="euler, lagrange or general.")]) -> None:
+    """Print a commented scenario template: `rotlab new lagrange > my_top.toml`."""
+    from importlib.resources import files
+
+    if kind not in TEMPLATE_KINDS:
+        typer.echo(f"rotlab: error: KIND: unknown kind '{kind}': choose one of {', '.join(TEMPLATE_KINDS)}", err=True)
+        raise typer.Exit(2)
+    typer.echo(files("rotlab").joinpath("templates", f"{kind}.toml").read_text(encoding="utf-8"), nl=False)
+
+
+def main() -> None:
+    """Console entry point."""
+    try:
+        app()
+    except KeyboardInterrupt:
+        typer.echo("rotlab: interrupted", err=True)
+        sys.exit(130)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,284 @@
+"""Pydantic v2 models of a scenario file.  Units SI; angles in radians unless a key ends in
+``_deg``.  Every vector names its frame in the key's documentation; unknown keys are errors.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal, Union
+
+import numpy as np
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
+
+from rotlab.methods.registry import METHOD_NAMES
+from rotlab.scene import inertia
+
+MAX_SAMPLES = 10_000_000
+QUATERNION_NORM_TOLERANCE = 1e-3
+
+
+def _real(value: object) -> object:
+    """Accept TOML integers and floats only: no strings, no booleans."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise PydanticCustomError("real_number", "must be a number, found {found}", {"found": repr(value)})
+    if not math.isfinite(value):
+        raise PydanticCustomError("finite_number", "must be a finite number, found {found}", {"found": repr(value)})
+    return float(value)
+
+
+def _invalid(key: str, message: str) -> PydanticCustomError:
+    """A semantic error attached to sub-key ``key`` of the model being validated."""
+    return PydanticCustomError("rotlab", message.replace("{", "(").replace("}", ")"), {"key": key})
+
+
+Real = Annotated[float, BeforeValidator(_real)]
+PositiveReal = Annotated[float, BeforeValidator(_real), Field(gt=0)]
+NonNegativeReal = Annotated[float, BeforeValidator(_real), Field(ge=0)]
+Vec3 = tuple[Real, Real, Real]
+Vec4 = tuple[Real, Real, Real, Real]
+Frame = Literal["body", "space"]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+class Window(_Model):
+    """On/off time window [on, off) in seconds; the load acts only inside it."""
+
+    on: Real = -math.inf
+    off: Real = math.inf
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Window:
+        if not self.on < self.off:
+            raise _invalid("off", f"window must have on < off (got on = {self.on:g}, off = {self.off:g})")
+        return self
+
+
+class Body(_Model):
+    """Rigid body.  Inertia about the FIXED POINT, in the body frame (the frame you give it in)."""
+
+    principal_moments: Vec3 | None = None  # (A, B, C) kg·m², body axes are principal axes
+    inertia_tensor: tuple[Vec3, Vec3, Vec3] | None = None  # kg·m², symmetric positive definite
+    mass: PositiveReal | None = None  # kg
+    center_of_mass: Vec3 = (0.0, 0.0, 0.0)  # m, body frame, from the fixed point
+    allow_triangle_violation: bool = False  # opt-in for mathematical test problems only
+
+    @model_validator(mode="after")
+    def _physical(self) -> Body:
+        if (self.principal_moments is None) == (self.inertia_tensor is None):
+            raise _invalid(
+                "principal_moments",
+                "give exactly one of principal_moments = [A, B, C] or inertia_tensor = [[...], [...], [...]]",
+            )
+        if self.principal_moments is not None:
+            key = "principal_moments"
+            moments = np.array(self.principal_moments)
+            if np.any(moments <= 0.0):
+                raise _invalid(key, f"moments of inertia must be > 0 kg·m² (got {list(self.principal_moments)})")
+        else:
+            key = "inertia_tensor"
+            tensor = np.array(self.inertia_tensor)
+            if inertia.asymmetry(tensor) > inertia.SYMMETRY_RTOL:
+                raise _invalid(key, "tensor is not symmetric: I[i][j] must equal I[j][i]")
+            moments, _ = inertia.principal_axes(tensor)
+            if moments[0] <= 0.0:
+                raise _invalid(
+                    key, f"tensor is not positive definite (principal moments {moments.tolist()}): check signs of products of inertia"
+                )
+        broken = inertia.triangle_violation(moments)
+        if broken and not self.allow_triangle_violation:
+            raise _invalid(
+                key,
+                f"principal moments break the triangle inequality, {broken}: no real body has them; "
+                "set allow_triangle_violation = true for a mathematical test problem",
+            )
+        return self
+
+
+class Initial(_Model):
+    """Initial state.  ω in BODY components; orientation maps body → space (default: identity)."""
+
+    omega: Vec3 = (0.0, 0.0, 0.0)  # rad/s, body frame
+    quaternion: Vec4 | None = None  # scalar first (q0, q1, q2, q3)
+    axis_angle: Vec3 | None = None  # rotation vector: axis × angle (rad), space = body at angle 0
+    euler_313: Vec3 | None = None  # (ψ, θ, φ) rad, classical 3-1-3
+    euler_313_deg: Vec3 | None = None  # (ψ, θ, φ) degrees
+
+    @model_validator(mode="after")
+    def _one_orientation(self) -> Initial:
+        given = [k for k in ("quaternion", "axis_angle", "euler_313", "euler_313_deg") if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise _invalid(given[1], f"give only one orientation, found {', '.join(given)}")
+        if self.quaternion is not None:
+            norm = float(np.linalg.norm(self.quaternion))
+            if norm == 0.0:
+                raise _invalid("quaternion", "zero quaternion has no orientation: use [1, 0, 0, 0] for the identity")
+            if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+                raise _invalid(
+                    "quaternion",
+                    f"|Λ| = {norm:.6g} is not 1: give a unit quaternion (divide each component by {norm:.6g})",
+                )
+        return self
+
+
+class Gravity(_Model):
+    """Uniform field acting on body.mass at body.center_of_mass: M = r_c × (m Rᵀ g)."""
+
+    type: Literal["gravity"]
+    g: Vec3 = (0.0, 0.0, -9.81)  # m/s², SPACE frame
+
+
+class Torque(_Model):
+    """Constant torque M (N·m) in the named frame; body = follower load, space = fixed direction."""
+
+    type: Literal["torque"]
+    frame: Frame
+    value: Vec3
+    window: Window | None = None
+
+
+class Force(_Model):
+    """Constant force F (N) in the named frame, applied at a body point (m, body frame)."""
+
+    type: Literal["force"]
+    frame: Frame
+    value: Vec3
+    point: Vec3
+
+
+class HarmonicTorque(_Model):
+    """M(t) = offset + amplitude · sin(angular_frequency · t + phase), in the named frame."""
+
+    type: Literal["harmonic_torque"]
+    frame: Frame
+    amplitude: Vec3  # N·m
+    angular_frequency: Real  # rad/s
+    phase: Real = 0.0  # rad
+    offset: Vec3 = (0.0, 0.0, 0.0)  # N·m
+    window: Window | None = None
+
+
+class TorqueTable(_Model):
+    """Piecewise-linear torque through (times[k], values[k]); zero outside [times[0], times[-1]]."""
+
+    type: Literal["torque_table"]
+    frame: Frame
+    times: list[Real]  # s, strictly increasing
+    values: list[Vec3]  # N·m
+    window: Window | None = None
+
+    @model_validator(mode="after")
+    def _table(self) -> TorqueTable:
+        if len(self.times) < 2:
+            raise _invalid("times", "a table needs at least 2 points")
+        if len(self.values) != len(self.times):
+            raise _invalid("values", f"needs one [Mx, My, Mz] per time: {len(self.times)} times, {len(self.values)} values")
+        if np.any(np.diff(self.times) <= 0.0):
+            raise _invalid("times", "times must be strictly increasing")
+        return self
+
+
+class Damping(_Model):
+    """Linear damping torque M = −k ω (N·m·s); the same vector in every frame."""
+
+    type: Literal["damping"]
+    coefficient: NonNegativeReal
+
+
+Load = Annotated[
+    Union[Gravity, Torque, Force, HarmonicTorque, TorqueTable, Damping],
+    Field(discriminator="type"),
+]
+LOAD_MODELS: dict[str, type[_Model]] = {
+    m.model_fields["type"].annotation.__args__[0]: m  # type: ignore[union-attr]
+    for m in (Gravity, Torque, Force, HarmonicTorque, TorqueTable, Damping)
+}
+
+
+class Time(_Model):
+    """Time span and output sampling.  Samples include both ends."""
+
+    start: Real = 0.0  # s
+    end: Real  # s
+    sample_rate: PositiveReal | None = None  # samples per second (default 100)
+    samples: Annotated[int, Field(ge=2, strict=True)] | None = None  # number of samples, both ends included
+
+    @model_validator(mode="after")
+    def _span(self) -> Time:
+        if not self.end > self.start:
+            raise _invalid("end", f"end ({self.end:g} s) must be after start ({self.start:g} s)")
+        if self.sample_rate is not None and self.samples is not None:
+            raise _invalid("samples", "give sample_rate or samples, not both")
+        if self.sample_count > MAX_SAMPLES:
+            raise _invalid(
+                "sample_rate" if self.samples is None else "samples",
+                f"{self.sample_count:,} samples is beyond the limit of {MAX_SAMPLES:,}: lower the rate or shorten the span",
+            )
+        return self
+
+    @property
+    def sample_count(self) -> int:
+        if self.samples is not None:
+            return self.samples
+        rate = 100.0 if self.sample_rate is None else self.sample_rate
+        span = (self.end - self.start) * rate
+        return int(min(math.floor(span + 1e-9), 10 * MAX_SAMPLES)) + 1
+
+    def sample_times(self) -> np.ndarray:
+        return np.linspace(self.start, self.end, self.sample_count)
+
+
+class Solver(_Model):
+    """Integration method and its accuracy settings."""
+
+    method: str = "auto"
+    step: PositiveReal | None = None  # s, fixed-step methods (default from the scene's time scale)
+    rtol: PositiveReal = 1e-10  # adaptive methods
+    atol: PositiveReal = 1e-12
+    max_steps: Annotated[int, Field(gt=0, strict=True)] = 200_000_000
+
+    @field_validator("method")
+    @classmethod
+    def _known(cls, name: str) -> str:
+        if name not in METHOD_NAMES:
+            raise PydanticCustomError(
+                "rotlab", "unknown method '{name}': choose one of {choices}", {"name": name, "choices": ", ".join(METHOD_NAMES)}
+            )
+        return name
+
+
+class Output(_Model):
+    """What to record and where (path relative to the working directory)."""
+
+    path: str | None = None  # default: <config name>.rrd
+    euler_angles: bool = False
+
+
+class Scenario(_Model):
+    title: str = ""
+    description: str = ""
+    body: Body
+    initial: Initial = Initial()
+    loads: list[Load] = []
+    time: Time
+    solver: Solver = Solver()
+    output: Output = Output()
+
+    @model_validator(mode="after")
+    def _loads_need_body_data(self) -> Scenario:
+        for k, load in enumerate(self.loads):
+            if isinstance(load, Gravity) and self.body.mass is None:
+                raise PydanticCustomError(
+                    "rotlab", "gravity (loads[{k}]) needs the body's mass: add mass = ... (kg) under [body]", {"key": "body.mass", "k": k}
+                )
+        return self

@@ -1,0 +1,1 @@
+"""Pure numerical kernels (numba-compiled where hot). Kernels never see a config object."""

@@ -1,0 +1,190 @@
+"""Adaptive Dormand–Prince 8(5,3) with 7th-order dense output (Hairer, Nørsett & Wanner,
+"Solving ODEs I", §II.10), compiled.
+
+Step: 12 stages, y₁ = y₀ + h Σ b_j k_j, FSAL k₁₃ = f(t + h, y₁).  Error (scaled by
+sc_i = atol + rtol · max(|y₀ᵢ|, |y₁ᵢ|)):  err = |h| ‖e₅‖² / √((‖e₅‖² + 0.01 ‖e₃‖²) · n),
+e₅ = Σ E5_j k_j, e₃ = Σ E3_j k_j.  Step factor 0.9 · err^(−1/8) clipped to [0.2, 10].
+Dense output: 3 more stages and the degree-7 interpolant, evaluated at every sample in
+(t, t + h] — so the output times never shorten a step.
+The Butcher tableau is read from SciPy's published DOP853 coefficient table.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from scipy.integrate._ivp import dop853_coefficients as _coef
+
+from rotlab.core.dynamics import STATE_SIZE, all_finite, rhs
+
+OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
+
+_A = np.ascontiguousarray(_coef.A, dtype=np.float64)  # (16, 16)
+_B = np.ascontiguousarray(_coef.B, dtype=np.float64)  # (12,)
+_C = np.ascontiguousarray(_coef.C, dtype=np.float64)  # (16,)
+_E3 = np.ascontiguousarray(_coef.E3, dtype=np.float64)  # (13,)
+_E5 = np.ascontiguousarray(_coef.E5, dtype=np.float64)  # (13,)
+_D = np.ascontiguousarray(_coef.D, dtype=np.float64)  # (4, 16)
+_STAGES = 12
+_SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
+_EXPONENT = -1.0 / 8.0
+
+
+@njit(cache=True)
+def _rms_scaled(v, y, rtol, atol):
+    s = 0.0
+    for m in range(v.shape[0]):
+        x = v[m] / (atol + rtol * abs(y[m]))
+        s += x * x
+    return np.sqrt(s / v.shape[0])
+
+
+@njit(cache=True)
+def initial_step(t, y, f0, t_end, rtol, atol, euler, loads):
+    """Hairer's starting step: h = min(100 h₀, (0.01 / max(d₁, d₂))^(1/8))."""
+    forces, terms, tables, table_t, table_v, damping = loads
+    d0 = _rms_scaled(y, y, rtol, atol)
+    d1 = _rms_scaled(f0, y, rtol, atol)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, t_end - t)
+    y1 = y + h0 * f0
+    f1 = np.empty_like(y)
+    rhs(t + h0, y1, f1, euler, forces, terms, tables, table_t, table_v, damping)
+    d2 = _rms_scaled(f1 - f0, y, rtol, atol) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    return min(100.0 * h0, h1, t_end - t)
+
+
+@njit(cache=True)
+def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, euler, loads, counters):
+    """Advance from (t, y) with trial step h (≤ 0: choose one), writing ``out[i]`` for every
+    sample i ≥ i_start passed, until all samples are written or ``max_steps`` steps were taken.
+
+    ``y`` is updated in place; ``counters`` (int64[3]) accumulates [accepted, rejected, f evals].
+    Returns (status, next sample index, t, next trial step).
+    """
+    forces, terms, tables, table_t, table_v, damping = loads  # unpacked once: see dynamics.torques
+    n = STATE_SIZE
+    K = np.empty((16, n))
+    y_new = np.empty(n)
+    tmp = np.empty(n)
+    F = np.empty((7, n))
+    rhs(t, y, K[0], euler, forces, terms, tables, table_t, table_v, damping)
+    counters[2] += 1
+    if h <= 0.0:
+        h = initial_step(t, y, K[0], t_end, rtol, atol, euler, loads)
+        counters[2] += 1
+    i = i_start
+    steps = 0
+    rejected = False
+    while i < times.shape[0] and steps < max_steps:
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        if h < min_step:
+            return STEP_TOO_SMALL, i, t, h
+        t_new = t + h
+        if t_new > t_end:
+            t_new = t_end
+        h = t_new - t
+        for s in range(1, _STAGES):
+            for m in range(n):
+                acc = 0.0
+                for j in range(s):
+                    acc += _A[s, j] * K[j, m]
+                tmp[m] = y[m] + h * acc
+            rhs(t + _C[s] * h, tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
+        for m in range(n):
+            acc = 0.0
+            for j in range(_STAGES):
+                acc += _B[j] * K[j, m]
+            y_new[m] = y[m] + h * acc
+        rhs(t_new, y_new, K[_STAGES], euler, forces, terms, tables, table_t, table_v, damping)
+        counters[2] += _STAGES
+        e5 = 0.0
+        e3 = 0.0
+        for m in range(n):
+            sc = atol + rtol * max(abs(y[m]), abs(y_new[m]))
+            a5 = 0.0
+            a3 = 0.0
+            for j in range(_STAGES + 1):
+                a5 += _E5[j] * K[j, m]
+                a3 += _E3[j] * K[j, m]
+            e5 += (a5 / sc) ** 2
+            e3 += (a3 / sc) ** 2
+        if e5 == 0.0 and e3 == 0.0:
+            err = 0.0
+        else:
+            err = h * e5 / np.sqrt((e5 + 0.01 * e3) * n)
+        if not np.isfinite(err):
+            if not all_finite(y_new) and h <= min_step * 1e3:
+                return NONFINITE, i, t, h
+            err = 1e10
+        if err < 1.0:
+            steps += 1
+            counters[0] += 1
+            if times[i] <= t_new:
+                _dense_coefficients(t, h, y, y_new, K, F, tmp, euler, loads)
+                counters[2] += 3
+                while i < times.shape[0] and times[i] <= t_new:
+                    if times[i] == t_new:
+                        out[i, :] = y_new
+                    else:
+                        _dense_eval(F, y, (times[i] - t) / h, out[i])
+                    i += 1
+            for m in range(n):
+                y[m] = y_new[m]
+                K[0, m] = K[_STAGES, m]
+            t = t_new
+            if not all_finite(y):
+                return NONFINITE, i, t, h
+            if err == 0.0:
+                factor = _MAX_FACTOR
+            else:
+                factor = min(_MAX_FACTOR, _SAFETY * err**_EXPONENT)
+            if rejected:
+                factor = min(1.0, factor)
+            h *= factor
+            rejected = False
+        else:
+            counters[1] += 1
+            h *= max(_MIN_FACTOR, _SAFETY * err**_EXPONENT)
+            rejected = True
+    return OK, i, t, h
+
+
+@njit(cache=True)
+def _dense_coefficients(t, h, y, y_new, K, F, tmp, euler, loads):
+    """Stages 14–16 and the interpolant coefficients F (7 × n) of the step [t, t + h]."""
+    forces, terms, tables, table_t, table_v, damping = loads
+    n = y.shape[0]
+    for s in range(_STAGES + 1, 16):
+        for m in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += _A[s, j] * K[j, m]
+            tmp[m] = y[m] + h * acc
+        rhs(t + _C[s] * h, tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
+    for m in range(n):
+        dy = y_new[m] - y[m]
+        F[0, m] = dy
+        F[1, m] = h * K[0, m] - dy
+        F[2, m] = 2.0 * dy - h * (K[_STAGES, m] + K[0, m])
+        for r in range(4):
+            acc = 0.0
+            for j in range(16):
+                acc += _D[r, j] * K[j, m]
+            F[3 + r, m] = h * acc
+
+
+@njit(cache=True)
+def _dense_eval(F, y, x, out):
+    """Horner-like evaluation of the interpolant at x = (τ − t)/h ∈ [0, 1]."""
+    n = y.shape[0]
+    for m in range(n):
+        acc = 0.0
+        for k in range(6, -1, -1):
+            acc += F[k, m]
+            acc *= x if (6 - k) % 2 == 0 else (1.0 - x)
+        out[m] = acc + y[m]

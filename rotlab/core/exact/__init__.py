@@ -1,0 +1,1 @@
+"""Exact (closed-form / elliptic-function) solutions, evaluated directly at sample times."""

@@ -1,0 +1,133 @@
+"""Quaternion algebra, scalar first: Λ = (q0, q1, q2, q3).
+
+Product  (a0, a) ∘ (b0, b) = (a0 b0 − a·b,  a0 b + b0 a + a × b).
+A unit Λ maps body to space:  r_space = Λ ∘ r_body ∘ Λ̃,  i.e.  r_space = R(Λ) r_body.
+
+Scalar helpers are numba-compiled for use inside kernels; the ``*_array`` versions are
+vectorised numpy over a leading sample axis for post-processing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    """Λ ∘ M for scalar-first components; returns a 4-tuple."""
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 + a2 * b0 + a3 * b1 - a1 * b3,
+        a0 * b3 + a3 * b0 + a1 * b2 - a2 * b1,
+    )
+
+
+@njit(cache=True, inline="always")
+def rotate_to_space(q0, q1, q2, q3, x, y, z):
+    """R(Λ) v = Λ ∘ v ∘ Λ̃ for a unit Λ (v in body components → space components)."""
+    # v' = v + 2 q0 (q × v) + 2 q × (q × v)
+    tx = 2.0 * (q2 * z - q3 * y)
+    ty = 2.0 * (q3 * x - q1 * z)
+    tz = 2.0 * (q1 * y - q2 * x)
+    return (
+        x + q0 * tx + (q2 * tz - q3 * ty),
+        y + q0 * ty + (q3 * tx - q1 * tz),
+        z + q0 * tz + (q1 * ty - q2 * tx),
+    )
+
+
+@njit(cache=True, inline="always")
+def rotate_to_body(q0, q1, q2, q3, x, y, z):
+    """R(Λ)ᵀ v = Λ̃ ∘ v ∘ Λ for a unit Λ (v in space components → body components)."""
+    return rotate_to_space(q0, -q1, -q2, -q3, x, y, z)
+
+
+def multiply_array(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Λ ∘ M over broadcast leading axes; inputs (..., 4) scalar first."""
+    a0, av = a[..., :1], a[..., 1:]
+    b0, bv = b[..., :1], b[..., 1:]
+    scalar = a0 * b0 - np.sum(av * bv, axis=-1, keepdims=True)
+    vector = a0 * bv + b0 * av + np.cross(av, bv)
+    return np.concatenate([scalar, vector], axis=-1)
+
+
+def conjugate_array(q: np.ndarray) -> np.ndarray:
+    """Λ̃ = (q0, −q1, −q2, −q3)."""
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def rotate_to_space_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R(Λ) v for arrays q (..., 4) and v (..., 3), Λ assumed unit."""
+    q0 = q[..., :1]
+    qv = q[..., 1:]
+    t = 2.0 * np.cross(qv, v)
+    return v + q0 * t + np.cross(qv, t)
+
+
+def rotate_to_body_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R(Λ)ᵀ v for arrays q (..., 4) and v (..., 3), Λ assumed unit."""
+    return rotate_to_space_array(conjugate_array(q), v)
+
+
+def to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix R(Λ) (body → space) of a unit quaternion, shape (..., 3, 3)."""
+    q = np.asarray(q, dtype=float)
+    eye = np.broadcast_to(np.eye(3), q.shape[:-1] + (3, 3))
+    return np.stack([rotate_to_space_array(q, eye[..., :, k]) for k in range(3)], axis=-1)
+
+
+def from_matrix(m: np.ndarray) -> np.ndarray:
+    """Unit quaternion (q0 ≥ 0) of a proper rotation matrix (Shepperd's method, stable)."""
+    m = np.asarray(m, dtype=float)
+    trace = np.trace(m)
+    candidates = np.array([trace, m[0, 0], m[1, 1], m[2, 2]])
+    k = int(np.argmax(candidates))
+    if k == 0:
+        s = 2.0 * np.sqrt(1.0 + trace)
+        q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
+    elif k == 1:
+        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s]
+    elif k == 2:
+        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s]
+    q = np.array(q)
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0.0 else -q
+
+
+def from_axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Λ = (cos(α/2), sin(α/2) e) for a rotation by α about the unit axis e."""
+    e = np.asarray(axis, dtype=float)
+    e = e / np.linalg.norm(e)
+    return np.concatenate([[np.cos(0.5 * angle)], np.sin(0.5 * angle) * e])
+
+
+def from_euler_313(psi: float, theta: float, phi: float) -> np.ndarray:
+    """Classical 3-1-3 Euler angles: Λ = Λ_z(ψ) ∘ Λ_x(θ) ∘ Λ_z(φ) (precession, nutation, spin)."""
+    z = np.array([0.0, 0.0, 1.0])
+    x = np.array([1.0, 0.0, 0.0])
+    q = multiply_array(from_axis_angle(z, psi), from_axis_angle(x, theta))
+    return multiply_array(q, from_axis_angle(z, phi))
+
+
+def to_euler_313(q: np.ndarray) -> np.ndarray:
+    """3-1-3 Euler angles (ψ, θ, φ) of unit quaternions (..., 4) → (..., 3).
+
+    θ = arccos(R33) ∈ [0, π]; ψ = atan2(R13, −R23), φ = atan2(R31, R32).  At θ = 0 or π
+    only ψ ± φ is defined: there φ is set to 0 and the whole rotation goes into ψ.
+    """
+    r = to_matrix(q)
+    r33 = np.clip(r[..., 2, 2], -1.0, 1.0)
+    theta = np.arccos(r33)
+    sin_theta = np.hypot(r[..., 0, 2], r[..., 1, 2])
+    regular = sin_theta > 1e-12
+    psi = np.where(regular, np.arctan2(r[..., 0, 2], -r[..., 1, 2]), np.arctan2(r[..., 1, 0], r[..., 0, 0]))
+    phi = np.where(regular, np.arctan2(r[..., 2, 0], r[..., 2, 1]), 0.0)
+    # at θ = π the rotation is Rz(ψ) Rx(π): ψ from R11 = cos ψ, R21 = sin ψ still holds
+    return np.stack([psi, theta, phi], axis=-1)

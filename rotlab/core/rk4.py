@@ -1,0 +1,57 @@
+"""Classical fixed-step Runge–Kutta 4 (the seeds' baseline), without renormalisation.
+
+    k1 = f(t, y), k2 = f(t + h/2, y + h k1/2), k3 = f(t + h/2, y + h k2/2), k4 = f(t + h, y + h k3)
+    y ← y + h (k1 + 2 k2 + 2 k3 + k4) / 6
+Each sample interval [t_{i−1}, t_i] is split into ``substeps`` equal steps, so samples fall on
+steps exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from rotlab.core.dynamics import STATE_SIZE, all_finite, rhs
+
+OK, NONFINITE = 0, 1
+
+
+@njit(cache=True)
+def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads):
+    """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, writing ``out[i]``.
+
+    Stops after at most ``max_steps`` steps (at a sample).  Returns (status, next sample index,
+    steps taken); on NONFINITE the returned index is the sample whose interval failed.
+    """
+    forces, terms, tables, table_t, table_v, damping = loads  # unpacked once: see dynamics.torques
+    n = STATE_SIZE
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    tmp = np.empty(n)
+    steps = 0
+    i = i_start
+    while i < times.shape[0] and steps + substeps <= max_steps:
+        t0 = times[i - 1]
+        h = (times[i] - t0) / substeps
+        for j in range(substeps):
+            t = t0 + j * h
+            rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
+            for m in range(n):
+                tmp[m] = y[m] + 0.5 * h * k1[m]
+            rhs(t + 0.5 * h, tmp, k2, euler, forces, terms, tables, table_t, table_v, damping)
+            for m in range(n):
+                tmp[m] = y[m] + 0.5 * h * k2[m]
+            rhs(t + 0.5 * h, tmp, k3, euler, forces, terms, tables, table_t, table_v, damping)
+            for m in range(n):
+                tmp[m] = y[m] + h * k3[m]
+            rhs(t + h, tmp, k4, euler, forces, terms, tables, table_t, table_v, damping)
+            for m in range(n):
+                y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
+        steps += substeps
+        if not all_finite(y):
+            return NONFINITE, i, steps
+        out[i, :] = y
+        i += 1
+    return OK, i, steps

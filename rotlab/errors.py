@@ -1,0 +1,24 @@
+"""The two kinds of failure a user can see.
+
+* ``InputError``  — the scenario or the command line is wrong (exit code 2).
+* ``RunFailure``  — the numbers went wrong during a run (exit code 1); what was valid is kept.
+"""
+
+from __future__ import annotations
+
+
+class InputError(Exception):
+    """Bad input: ``where`` names the TOML key (or line, or option); the message says the fix."""
+
+    exit_code = 2
+
+    def __init__(self, where: str, message: str) -> None:
+        super().__init__(f"{where}: {message}" if where else message)
+        self.where = where
+        self.message = message
+
+
+class RunFailure(Exception):
+    """A run stopped (non-finite state, step budget exhausted): the valid samples are kept."""
+
+    exit_code = 1

@@ -1,0 +1,1 @@
+"""Methods: one module each behind the ``Method`` interface (see base.py)."""

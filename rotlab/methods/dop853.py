@@ -1,0 +1,51 @@
+"""``dop853``: adaptive Dormand–Prince 8(5,3) with dense output, sampled exactly at the output
+times (``solver.rtol``, ``solver.atol``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rotlab.core.dynamics import euler_coefficients
+from rotlab.core import dop853 as kernel
+from rotlab.methods.base import ProgressCallback, Settings, Solution
+from rotlab.methods.stepping import initial_state, nonfinite_message, run_chunks
+from rotlab.scene.scene import Scene
+
+
+class DOP853:
+    name = "dop853"
+    summary = "adaptive Dormand–Prince 8(5,3) with dense output"
+
+    def unsupported(self, scene: Scene) -> str | None:
+        return None
+
+    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+        out = np.empty((t.shape[0], 8))
+        y = initial_state(scene.q0, scene.omega0)
+        out[0] = y
+        euler = euler_coefficients(scene.moments)
+        loads = scene.loads.for_kernel()
+        counters = np.zeros(3, dtype=np.int64)
+        clock = {"t": float(t[0]), "h": 0.0}
+
+        def advance(i: int, budget: int) -> tuple[int, int, int]:
+            before = int(counters[0] + counters[1])
+            status, i, clock["t"], clock["h"] = kernel.dop853_advance(
+                y, clock["t"], clock["h"], t, out, i, float(t[-1]), settings.rtol, settings.atol, budget, euler, loads, counters
+            )
+            return status, i, int(counters[0] + counters[1]) - before
+
+        def describe(status: int, i: int) -> str:
+            if status == kernel.STEP_TOO_SMALL:
+                return f"step size fell below the floating-point resolution at t = {clock['t']:.9g} s (the solution is singular or the tolerances too tight)"
+            return nonfinite_message(t, i, out)
+
+        solution = run_chunks(t, out, advance, settings.max_steps, progress, describe)
+        solution.steps = int(counters[0])
+        solution.rejected_steps = int(counters[1])
+        solution.rhs_evaluations = int(counters[2])
+        solution.details = {"rtol": settings.rtol, "atol": settings.atol}
+        return solution
+
+
+METHOD = DOP853()

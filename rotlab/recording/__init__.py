@@ -1,0 +1,1 @@
+"""Rerun recordings: layout (SPEC's stable contract), body shapes, atomic writing."""

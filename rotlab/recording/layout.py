@@ -1,0 +1,46 @@
+"""Entity paths and the default blueprint: the recording's stable contract (SPEC).
+
+Timeline ``sim_time`` (duration).  Vectors name their frame in the path or the series names.
+"""
+
+from __future__ import annotations
+
+import rerun.blueprint as rrb
+
+TIMELINE = "sim_time"
+
+BODY = "/world/body"  # Transform3D: Λ (body → space); shape and body axes below it
+BODY_SHAPE = "/world/body/shape"
+BODY_AXES = "/world/body/axes"
+BODY_ARM = "/world/body/arm"  # fixed point → centre of mass
+OMEGA_ARROW = "/world/omega"  # space frame, scaled
+L_ARROW = "/world/L"  # space frame, scaled
+QUATERNION = "/body/quaternion"  # [q0, q1, q2, q3], float64
+OMEGA = "/body/omega"  # body frame, rad/s
+L_SPACE = "/world/L_space"  # space frame, kg·m²/s
+ENERGY = "/energy"  # J
+INVARIANTS = "/invariants"  # /invariants/<name>: relative drift
+EULER_ANGLES = "/euler_angles"  # (ψ, θ, φ) rad
+INFO = "/info"  # TextDocument: scenario, method, run statistics
+
+
+def blueprint(invariants: list[str], euler_angles: bool) -> rrb.Blueprint:
+    plots = [
+        rrb.TimeSeriesView(origin=OMEGA, name="ω, body frame (rad/s)"),
+        rrb.TimeSeriesView(origin=L_SPACE, name="L, space frame (kg·m²/s)"),
+        rrb.TimeSeriesView(origin=ENERGY, name="Energy (J)"),
+        rrb.TimeSeriesView(origin=INVARIANTS, name="Invariant drift (relative)"),
+    ]
+    if euler_angles:
+        plots.append(rrb.TimeSeriesView(origin=EULER_ANGLES, name="Euler angles 3-1-3 (rad)"))
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Tabs(
+                rrb.Spatial3DView(origin="/world", name="Body (space frame)"),
+                rrb.TextDocumentView(origin=INFO, name="Run"),
+            ),
+            rrb.Vertical(*plots),
+            column_shares=[3, 2],
+        ),
+        collapse_panels=True,
+    )

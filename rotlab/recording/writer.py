@@ -1,0 +1,153 @@
+"""Write a ``Trajectory`` to a Rerun ``.rrd`` file: columns sent in chunks (``send_columns``,
+never one ``log`` per sample), to a temporary file renamed only when complete."""
+
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+
+from rotlab.errors import InputError
+from rotlab.recording import layout
+from rotlab.recording.report import run_report
+from rotlab.recording.shapes import equivalent_ellipsoid
+from rotlab.trajectory import Trajectory
+
+CHUNK_ROWS = 4096
+AXIS_COLORS = [(230, 60, 60), (60, 200, 60), (70, 110, 240)]
+
+
+def check_output_path(path: Path) -> None:
+    """Fail early (before a long run) when the output cannot be written."""
+    where = f"output {path}"
+    if path.exists() and path.is_dir():
+        raise InputError(where, "is a directory: give a file name ending in .rrd")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise InputError(where, f"directory {parent} does not exist: create it or choose another path")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(where, f"directory {parent} is not writable: choose another path with -o")
+
+
+def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_ROWS) -> Path:
+    """Write ``traj`` to ``path`` atomically; returns the path."""
+    path = Path(path)
+    check_output_path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    try:
+        rec = rr.RecordingStream("rotlab", recording_id=uuid.uuid4())
+        rec.save(tmp, default_blueprint=layout.blueprint(list(traj.invariants), traj.euler_angles is not None))
+        _write_static(rec, traj)
+        _write_series(rec, traj, chunk_rows)
+        rec.flush()
+        rec.disconnect()
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
+    """Every time series of the layout: entity → ((N, k) float64 values, k series names)."""
+    q = traj.quaternion
+    out: dict[str, tuple[np.ndarray, list[str]]] = {
+        layout.QUATERNION: (q, ["q0", "q1", "q2", "q3"]),
+        layout.OMEGA: (traj.omega, ["p = ω_x (rad/s)", "q = ω_y (rad/s)", "r = ω_z (rad/s)"]),
+        layout.L_SPACE: (traj.L_space, ["L_X space (kg·m²/s)", "L_Y space (kg·m²/s)", "L_Z space (kg·m²/s)"]),
+    }
+    energy, names = [traj.kinetic], ["kinetic T (J)"]
+    if traj.potential is not None:
+        energy += [traj.potential, traj.total]
+        names += ["potential V (J)", "total T + V (J)"]
+    if traj.work is not None:
+        energy.append(traj.work)
+        names.append("work W of non-conservative loads (J)")
+    out[layout.ENERGY] = (np.column_stack(energy), names)
+    for name, drift in traj.invariants.items():
+        out[f"{layout.INVARIANTS}/{name}"] = (drift[:, None], [INVARIANT_LABELS.get(name, name)])
+    if traj.euler_angles is not None:
+        out[layout.EULER_ANGLES] = (traj.euler_angles, ["ψ precession (rad)", "θ nutation (rad)", "φ spin (rad)"])
+    return out
+
+
+INVARIANT_LABELS = {
+    "energy": "(H − H₀)/scale, H = T + V − W",
+    "quaternion_norm": "|Λ| − 1",
+    "L_norm": "(|L| − |L₀|)/|L₀|",
+    "L_space": "|L − L₀|/|L₀| (space frame)",
+    "L_vertical": "ΔL·up/|L₀| (space frame)",
+    "L_symmetry": "ΔL·e_sym/|L₀| (body frame)",
+}
+
+
+def _write_static(rec: rr.RecordingStream, traj: Trajectory) -> None:
+    shape = equivalent_ellipsoid(traj.scene.scenario.body)
+    size = shape.size
+    rec.log(
+        layout.BODY_SHAPE,
+        rr.Ellipsoids3D(
+            half_sizes=[shape.half_sizes],
+            centers=[shape.center],
+            quaternions=[rr.Quaternion(xyzw=_xyzw(shape.orientation))],
+            colors=[(200, 170, 90)],
+            fill_mode="solid",
+        ),
+        static=True,
+    )
+    rec.log(
+        layout.BODY_AXES,
+        rr.Arrows3D(vectors=np.eye(3) * 1.3 * size, colors=AXIS_COLORS, labels=["x body", "y body", "z body"]),
+        static=True,
+    )
+    r_c = np.asarray(traj.scene.scenario.body.center_of_mass, dtype=float)
+    if np.any(r_c != 0.0):
+        rec.log(layout.BODY_ARM, rr.LineStrips3D([[np.zeros(3), r_c]], colors=[(40, 40, 40)], labels=["r_c"]), static=True)
+    for entity, (_, names) in series(traj).items():
+        rec.log(entity, rr.SeriesLines(names=names), static=True)
+    rec.log(layout.INFO, rr.TextDocument(run_report(traj), media_type="text/markdown"), static=True)
+
+
+def _write_series(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int) -> None:
+    n = traj.t.shape[0]
+    if n == 0:
+        return
+    ns = np.round(traj.t * 1e9).astype(np.int64).astype("timedelta64[ns]")
+    size = equivalent_ellipsoid(traj.scene.scenario.body).size
+    unit_q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
+    from rotlab.core.quaternion import rotate_to_space_array
+
+    omega_space = rotate_to_space_array(unit_q, traj.omega)
+    arrows = {
+        layout.OMEGA_ARROW: (omega_space, _arrow_scale(omega_space, size), "ω", (240, 150, 30)),
+        layout.L_ARROW: (traj.L_space, _arrow_scale(traj.L_space, size), "L", (150, 60, 220)),
+    }
+    all_series = series(traj)
+    for start in range(0, n, chunk_rows):
+        rows = slice(start, min(start + chunk_rows, n))
+        k = rows.stop - rows.start
+        index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
+        rec.send_columns(layout.BODY, index, rr.Transform3D.columns(quaternion=_xyzw(unit_q[rows])))
+        for entity, (vectors, scale, label, color) in arrows.items():
+            rec.send_columns(
+                entity,
+                index,
+                rr.Arrows3D.columns(vectors=vectors[rows] * scale, colors=np.tile(color, (k, 1)).astype(np.uint8)),
+            )
+        for entity, (values, _) in all_series.items():
+            rec.send_columns(entity, index, rr.Scalars.columns(scalars=values[rows]))
+    for entity, (vectors, scale, label, color) in arrows.items():
+        rec.log(entity, rr.Arrows3D.from_fields(labels=[f"{label} ×{scale:.3g}"]), static=True)
+
+
+def _arrow_scale(vectors: np.ndarray, size: float) -> float:
+    longest = float(np.max(np.linalg.norm(vectors, axis=1)))
+    return 1.5 * size / longest if longest > 0.0 else 1.0
+
+
+def _xyzw(q: np.ndarray) -> np.ndarray:
+    """Rerun's quaternion order (x, y, z, w) from scalar-first (w, x, y, z)."""
+    return np.roll(q, -1, axis=-1)

@@ -1,0 +1,138 @@
+"""A scene: the scenario in the principal frame, classified, with its invariants.
+
+Frames.  The user's body frame U (where the inertia was given) and the principal frame P are
+related by the proper rotation ``axes`` (columns = principal axes in U): r_U = axes · r_P.
+Internally Λ_P = Λ_U ∘ Λ_axes and ω_P = axesᵀ ω_U; every reported quantity is converted back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rotlab.config import models as cfg
+from rotlab.core import quaternion as quat
+from rotlab.scene import inertia
+from rotlab.scene.loads import LoadArrays, active_forces, compile_loads, has_nonconservative, torque_scale
+
+SYMMETRY_RTOL = 1e-12  # two moments this close are treated as equal (axisymmetric body)
+
+TORQUE_FREE, LAGRANGE, GENERAL = "torque_free", "lagrange", "general"
+
+
+@dataclass(frozen=True)
+class Scene:
+    scenario: cfg.Scenario
+    moments: np.ndarray  # principal moments (A, B, C), kg·m²
+    axes: np.ndarray  # (3, 3) proper rotation, columns = principal axes in the user's body frame
+    axes_quaternion: np.ndarray  # Λ of ``axes``
+    omega0: np.ndarray  # ω at t0, principal body frame
+    q0: np.ndarray  # Λ at t0, principal body → space
+    loads: LoadArrays
+    kind: str  # TORQUE_FREE | LAGRANGE | GENERAL
+    kind_reason: str
+    has_potential: bool  # some conservative field exerts torque
+    has_work: bool  # some non-conservative load
+    field_direction: np.ndarray | None  # unit "up" (−F̂) when all forces are parallel: L·up is invariant
+    symmetry_axis: np.ndarray | None  # Lagrange top: unit symmetry axis (principal frame), L·e is invariant
+    invariants: tuple[str, ...]
+
+    @property
+    def is_principal(self) -> bool:
+        return bool(np.array_equal(self.axes, np.eye(3)))
+
+    @property
+    def rate_scale(self) -> float:
+        """A characteristic angular rate (rad/s) of the scene: max(|ω0|, √(|M|/I_min), load frequencies)."""
+        rates = [float(np.linalg.norm(self.omega0)), np.sqrt(torque_scale(self.loads) / float(np.min(self.moments)))]
+        if self.loads.terms.size:
+            rates.append(float(np.max(np.abs(self.loads.terms[:, 9]))))
+        rates.append(self.loads.damping / float(np.min(self.moments)))
+        return max(rates)
+
+
+def initial_quaternion(initial: cfg.Initial) -> np.ndarray:
+    """Λ(t0) in the user's frames from whichever orientation key was given."""
+    if initial.quaternion is not None:
+        q = np.asarray(initial.quaternion, dtype=float)
+        return q / np.linalg.norm(q)
+    if initial.axis_angle is not None:
+        v = np.asarray(initial.axis_angle, dtype=float)
+        angle = float(np.linalg.norm(v))
+        return quat.from_axis_angle(v, angle) if angle > 0.0 else np.array([1.0, 0.0, 0.0, 0.0])
+    if initial.euler_313 is not None:
+        return quat.from_euler_313(*initial.euler_313)
+    if initial.euler_313_deg is not None:
+        return quat.from_euler_313(*np.radians(initial.euler_313_deg))
+    return np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def build_scene(scenario: cfg.Scenario) -> Scene:
+    body = scenario.body
+    if body.principal_moments is not None:
+        moments, axes = np.asarray(body.principal_moments, dtype=float), np.eye(3)
+    else:
+        moments, axes = inertia.principal_axes(np.asarray(body.inertia_tensor, dtype=float))
+    axes_q = quat.from_matrix(axes)
+    q0 = quat.multiply_array(initial_quaternion(scenario.initial), axes_q)
+    omega0 = axes.T @ np.asarray(scenario.initial.omega, dtype=float)
+    loads = compile_loads(scenario, axes)
+
+    forces = active_forces(loads)
+    has_work = has_nonconservative(loads)
+    field = _common_direction(forces[:, 3:]) if len(forces) and not has_work else None
+    kind, reason, symmetry_axis = _classify(moments, forces, has_work)
+
+    names = ["energy", "quaternion_norm"]
+    if kind == TORQUE_FREE:
+        names += ["L_norm", "L_space"]
+    if field is not None:
+        names.append("L_vertical")
+    if symmetry_axis is not None:
+        names.append("L_symmetry")
+    return Scene(
+        scenario=scenario,
+        moments=moments,
+        axes=axes,
+        axes_quaternion=axes_q,
+        omega0=omega0,
+        q0=q0,
+        loads=loads,
+        kind=kind,
+        kind_reason=reason,
+        has_potential=bool(len(forces)),
+        has_work=has_work,
+        field_direction=None if field is None else -field,
+        symmetry_axis=symmetry_axis,
+        invariants=tuple(names),
+    )
+
+
+def _common_direction(vectors: np.ndarray) -> np.ndarray | None:
+    """The unit direction shared by all ``vectors`` (same sense), or None."""
+    unit = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+    if np.all(np.linalg.norm(unit - unit[0], axis=1) < 1e-12):
+        return unit[0]
+    return None
+
+
+def _classify(moments: np.ndarray, forces: np.ndarray, has_work: bool) -> tuple[str, str, np.ndarray | None]:
+    if not len(forces) and not has_work:
+        return TORQUE_FREE, "no load exerts a torque", None
+    if has_work:
+        return GENERAL, "non-conservative or time-dependent loads", None
+    if len(forces) > 1:
+        return GENERAL, f"{len(forces)} forces act", None
+    arm = forces[0, :3] / np.linalg.norm(forces[0, :3])
+    scale = float(np.max(moments))
+    if np.ptp(moments) <= SYMMETRY_RTOL * scale:
+        return LAGRANGE, "spherical body, one uniform force (symmetry axis through the centre of mass)", arm
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        on_axis = abs(arm[i]) <= 1e-12 and abs(arm[j]) <= 1e-12
+        if on_axis and abs(moments[i] - moments[j]) <= SYMMETRY_RTOL * scale:
+            axis = np.zeros(3)
+            axis[k] = np.sign(arm[k])
+            return LAGRANGE, f"axisymmetric body (axis {k + 1}), centre of mass on the axis", axis
+    return GENERAL, "one force, body not axisymmetric about its point of application", None
