@@ -8,12 +8,13 @@ from typing import TextIO
 
 
 class ProgressBar:
-    def __init__(self, label: str, stream: TextIO = sys.stderr, delay: float = 0.5, width: int = 30) -> None:
-        self.label, self.stream, self.delay, self.width = label, stream, delay, width
+    def __init__(self, label: str, stream: TextIO | None = None, delay: float = 0.5, width: int = 30) -> None:
+        self.label, self.delay, self.width = label, delay, width
+        self.stream = sys.stderr if stream is None else stream
         self.started = time.perf_counter()
         self.shown = False
         self.last = 0.0
-        self.enabled = bool(getattr(stream, "isatty", lambda: False)())
+        self.enabled = bool(getattr(self.stream, "isatty", lambda: False)())
 
     def __call__(self, done: int, total: int) -> None:
         if not self.enabled:

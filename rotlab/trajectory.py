@@ -60,7 +60,13 @@ class Trajectory:
 
 
 def build_trajectory(scene: Scene, solution: Solution, stats: RunStats, euler_angles: bool = False) -> Trajectory:
-    """Diagnostics of the valid part of ``solution``, converted to the user's frames."""
+    """Diagnostics of the valid part of ``solution``, converted to the user's frames.
+    Near a blow-up a finite state can have an overflowing energy: it is reported as inf."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _build(scene, solution, stats, euler_angles)
+
+
+def _build(scene: Scene, solution: Solution, stats: RunStats, euler_angles: bool) -> Trajectory:
     n = solution.valid
     t = solution.t[:n]
     q_p = solution.state[:n, 0:4]

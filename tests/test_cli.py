@@ -1,0 +1,62 @@
+"""The command line through typer's test runner."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+import rotlab
+from rotlab.config import load_scenario
+from rotlab.recording import layout
+from rotlab.recording.reader import read_series
+from tests.conftest import CONFIGS
+
+
+def test_version(cli):
+    result = cli("--version")
+    assert result.exit_code == 0 and result.stdout.strip() == f"rotlab {rotlab.__version__}"
+
+
+def test_run_writes_default_output_in_working_directory(cli, tmp_path):
+    result = cli("run", str(CONFIGS / "euler.toml"), "--duration", "0.5")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "euler.rrd").exists()
+    out = result.stdout
+    assert "torque-free" in out and "dop853" in out and "L_space" in out and "euler.rrd" in out
+
+
+def test_run_overrides_method_and_duration(cli, tmp_path):
+    result = cli("run", str(CONFIGS / "lagrange.toml"), "-o", "top.rrd", "--method", "rk4", "--duration", "0.25")
+    assert result.exit_code == 0, result.output
+    t, _ = read_series(tmp_path / "top.rrd", layout.OMEGA)
+    assert t[-1] == pytest.approx(0.25)
+    assert "rk4" in result.stdout
+
+
+def test_validate_many(cli):
+    result = cli("validate", *[str(p) for p in sorted(CONFIGS.glob("*.toml"))])
+    assert result.exit_code == 0
+    assert result.stdout.count(": ok") == len(list(CONFIGS.glob("*.toml")))
+
+
+@pytest.mark.parametrize("kind", ["euler", "lagrange", "general"])
+def test_new_prints_a_valid_commented_template(cli, tmp_path, kind):
+    result = cli("new", kind)
+    assert result.exit_code == 0
+    assert result.stdout.count("#") > 10  # commented for students
+    path = tmp_path / "t.toml"
+    path.write_text(result.stdout)
+    load_scenario(path)
+
+
+def test_new_unknown_kind(cli):
+    result = cli("new", "kovalevskaya")
+    assert result.exit_code == 2 and "euler, lagrange, general" in result.stderr
+
+
+def test_help_is_fast_and_imports_nothing_heavy():
+    code = "import sys; import rotlab.cli; print(sorted(m for m in ('numpy', 'numba', 'rerun', 'scipy', 'pydantic') if m in sys.modules))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == "[]", done.stdout + done.stderr

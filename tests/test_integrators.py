@@ -1,0 +1,116 @@
+"""Integrator accuracy, orders and failure handling, against exact results.
+
+Bounds stated per test.  No renormalisation: |Λ| − 1 is measured, not hidden.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rotlab
+from rotlab.core import quaternion as quat
+from tests.conftest import CONFIGS
+from tests.helpers import axisymmetric_free_body, same_rotation_error, scenario
+
+
+def _free(method: str, **solver):
+    q0 = quat.from_axis_angle([1.0, 1.0, 0.0], 0.5)
+    w0 = np.array([0.2, 0.5, 2.0])
+    sc = scenario(
+        body={"principal_moments": [1.0, 1.0, 1.8]},
+        initial={"omega": w0.tolist(), "quaternion": q0.tolist()},
+        time={"end": 10.0, "sample_rate": 10},
+        solver={"method": method, **solver},
+    )
+    traj = rotlab.simulate(sc)
+    q_exact, w_exact = axisymmetric_free_body(1.0, 1.8, w0, q0, traj.t)
+    return traj, max(np.max(np.abs(traj.omega - w_exact)), np.max(same_rotation_error(traj.quaternion, q_exact)))
+
+
+def test_rk4_is_fourth_order():
+    errors = [_free("rk4", step=h)[1] for h in (0.02, 0.01)]
+    assert 14.0 < errors[0] / errors[1] < 18.0  # 2⁴ = 16
+
+
+@pytest.mark.parametrize("rtol, bound", [(1e-8, 1e-6), (1e-10, 1e-8), (1e-12, 1e-10)])
+def test_dop853_error_follows_tolerance(rtol, bound):
+    traj, error = _free("dop853", rtol=rtol, atol=rtol * 1e-2)
+    assert error < bound
+
+
+def test_euler_config_invariants_at_default_tolerance():
+    """Issue 2 'done when': configs/euler.toml, dop853 defaults: drift of T and L_space < 1e-10."""
+    traj = rotlab.simulate(CONFIGS / "euler.toml", method="dop853")
+    drift = traj.max_drift()
+    assert drift["energy"] < 1e-10 and drift["L_space"] < 1e-10 and drift["L_norm"] < 1e-10
+
+
+def test_quaternion_norm_drift_is_reported_not_hidden():
+    traj, _ = _free("rk4", step=0.05)
+    norm_drift = traj.invariants["quaternion_norm"]
+    assert np.allclose(norm_drift, np.linalg.norm(traj.quaternion, axis=1) - 1.0)
+    assert np.max(np.abs(norm_drift)) > 1e-12  # RK4 does not preserve |Λ|: we see it
+
+
+def test_work_balances_energy_with_every_nonconservative_load():
+    """general.toml (gravity + windowed space torque + body table + harmonic + damping):
+    T + V − W stays constant to 1e-8 relative with dop853 at rtol 1e-10, while T + V itself
+    changes by orders of magnitude more."""
+    traj = rotlab.simulate(CONFIGS / "general.toml", method="dop853")
+    assert traj.work is not None and traj.potential is not None
+    assert np.max(np.abs(traj.invariants["energy"])) < 1e-8
+    assert np.ptp(traj.total) / abs(traj.total[0]) > 1e-3
+
+
+def test_damping_dissipates_exactly():
+    """Spherical body, M = −kω: ω(t) = ω₀ e^{−kt/I}, W = −½ I |ω₀|² (1 − e^{−2kt/I})."""
+    k, inertia = 0.3, 2.0
+    sc = scenario(
+        body={"principal_moments": [inertia] * 3},
+        initial={"omega": [1.0, -2.0, 0.5]},
+        loads=[{"type": "damping", "coefficient": k}],
+        time={"end": 5.0, "sample_rate": 4},
+        solver={"method": "dop853", "rtol": 1e-12, "atol": 1e-14},
+    )
+    traj = rotlab.simulate(sc)
+    decay = np.exp(-k * traj.t / inertia)
+    np.testing.assert_allclose(traj.omega, np.outer(decay, [1.0, -2.0, 0.5]), rtol=1e-10)
+    np.testing.assert_allclose(traj.work, -0.5 * inertia * 5.25 * (1 - decay**2), rtol=1e-10, atol=1e-14)
+
+
+def test_harmonic_and_table_torques_integrate_exactly():
+    """Spherical body, body-frame torques along one axis: I ω̇ = M(t) integrates in closed form.
+    M = 0.2 sin(3t + 0.5) + 0.1 inside [1, 3); table ramp 0 → 0.4 over [0, 2) then back to 0 at 4."""
+    sc = scenario(
+        body={"principal_moments": [1.0, 1.0, 1.0]},
+        loads=[
+            {"type": "harmonic_torque", "frame": "body", "amplitude": [0, 0, 0.2], "angular_frequency": 3.0, "phase": 0.5,
+             "offset": [0, 0, 0.1], "window": {"on": 1.0, "off": 3.0}},
+            {"type": "torque_table", "frame": "body", "times": [0.0, 2.0, 4.0], "values": [[0, 0, 0], [0.4, 0, 0], [0, 0, 0]]},
+        ],
+        time={"end": 5.0, "samples": 6},
+        solver={"method": "dop853", "rtol": 1e-12, "atol": 1e-14},
+    )
+    traj = rotlab.simulate(sc)
+    harmonic_total = 0.1 * 2.0 - 0.2 / 3.0 * (np.cos(3 * 3.0 + 0.5) - np.cos(3 * 1.0 + 0.5))
+    assert traj.omega[-1, 2] == pytest.approx(harmonic_total, abs=1e-9)
+    assert traj.omega[-1, 0] == pytest.approx(0.4 * 4.0 / 2.0, abs=1e-9)  # area under the triangle
+
+
+def test_blow_up_stops_with_a_message_and_keeps_valid_samples(cli, write, tmp_path):
+    path = write(
+        "boom.toml",
+        "[body]\nprincipal_moments = [1, 1, 1]\n[initial]\nomega = [0, 0, 1]\n"
+        '[[loads]]\ntype = "torque_table"\nframe = "body"\ntimes = [0.5, 0.6]\nvalues = [[1e308, 1e308, 0], [1e308, 1e308, 0]]\n'
+        "[time]\nend = 1.0\nsample_rate = 100\n[solver]\nmethod = \"rk4\"\nstep = 0.01\n",
+    )
+    result = cli("run", str(path), "-o", "boom.rrd")
+    assert result.exit_code == 1
+    message = result.stderr.strip().splitlines()
+    assert len(message) == 1 and "non-finite" in message[0] and "t = 0.5" in message[0]
+    from rotlab.recording import layout
+    from rotlab.recording.reader import read_series
+
+    t, w = read_series(tmp_path / "boom.rrd", layout.OMEGA)
+    assert t[-1] == pytest.approx(0.5) and np.all(np.isfinite(w))
