@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
+from rotlab.core.quaternion import rotate_to_space_array
 from rotlab.errors import InputError
 from rotlab.recording import layout
 from rotlab.recording.report import run_report
@@ -118,8 +119,6 @@ def _write_series(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int) ->
     ns = np.round(traj.t * 1e9).astype(np.int64).astype("timedelta64[ns]")
     size = equivalent_ellipsoid(traj.scene.scenario.body).size
     unit_q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
-    from rotlab.core.quaternion import rotate_to_space_array
-
     omega_space = rotate_to_space_array(unit_q, traj.omega)
     arrows = {
         layout.OMEGA_ARROW: (omega_space, _arrow_scale(omega_space, size), "ω", (240, 150, 30)),
@@ -128,23 +127,22 @@ def _write_series(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int) ->
     all_series = series(traj)
     for start in range(0, n, chunk_rows):
         rows = slice(start, min(start + chunk_rows, n))
-        k = rows.stop - rows.start
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
         rec.send_columns(layout.BODY, index, rr.Transform3D.columns(quaternion=_xyzw(unit_q[rows])))
-        for entity, (vectors, scale, label, color) in arrows.items():
-            rec.send_columns(
-                entity,
-                index,
-                rr.Arrows3D.columns(vectors=vectors[rows] * scale, colors=np.tile(color, (k, 1)).astype(np.uint8)),
-            )
+        for entity, (vectors, scale, _, _) in arrows.items():
+            rec.send_columns(entity, index, rr.Arrows3D.columns(vectors=vectors[rows] * scale))
         for entity, (values, _) in all_series.items():
             rec.send_columns(entity, index, rr.Scalars.columns(scalars=values[rows]))
-    for entity, (vectors, scale, label, color) in arrows.items():
-        rec.log(entity, rr.Arrows3D.from_fields(labels=[f"{label} ×{scale:.3g}"]), static=True)
+    for entity, (_, scale, label, color) in arrows.items():
+        rec.log(entity, rr.Arrows3D.from_fields(labels=[f"{label} ×{scale:.3g}"], colors=[color]), static=True)
 
 
 def _arrow_scale(vectors: np.ndarray, size: float) -> float:
-    longest = float(np.max(np.linalg.norm(vectors, axis=1)))
+    """Factor that makes the longest finite arrow 1.5 body sizes long."""
+    with np.errstate(over="ignore"):
+        lengths = np.linalg.norm(vectors, axis=1)
+    finite = lengths[np.isfinite(lengths)]
+    longest = float(finite.max()) if finite.size else 0.0
     return 1.5 * size / longest if longest > 0.0 else 1.0
 
 

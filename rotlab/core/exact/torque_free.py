@@ -44,7 +44,7 @@ p(u) = −c √ν atan(√ν tanh u) / (1 + ν).
 Precision: the invariants are exact rationals (fractions.Fraction); λ, K, Π(n|m), ψ̄, |L| come from
 60-digit decimal arithmetic (Bulirsch's cel, Carlson's duplication).  The secular phases λ τ and ψ̄ τ
 are formed in double-double and reduced modulo 2K and 4π, so that the error does not grow with τ
-beyond a few ulp of the reduced phase.  sn, cn, dn come from scipy.special.ellipj for m1 ≥ 1e-2 and
+beyond a few ulp of the reduced phase.  sn, cn, dn come from scipy.special.ellipj for m1 ≥ 0.5 and
 otherwise from the sech/tanh lattice sums (nome q1 = e^(−πK/K')), which keep full relative accuracy
 of cn and dn near u = ±K for m arbitrarily close to 1.  Nearly equal moments need no special form:
 every difference of moments is exact.  Limitation: 0 < m1 ≲ 1e-300 (ω0 within ~1e-150 of the middle
@@ -66,7 +66,7 @@ __all__ = ["torque_free_solution"]
 
 _DIGITS = 60
 _PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944592307816")
-_SERIES_BELOW_M1 = 1e-2  # use the hyperbolic lattice sums for sn, cn, dn when m1 < this
+_SERIES_BELOW_M1 = 0.5  # sn, cn, dn from the hyperbolic lattice sums when m1 < this (else ellipj)
 
 DD = tuple[float, float]  # double-double number hi + lo
 
@@ -255,14 +255,22 @@ def _jacobi_lattice(r, k_big: float, k_comp: float, m1: float):
     cn = dn.copy()
     if np.isfinite(k_big):
         step = 2.0 * shift * k_big  # −ln q1
+        q1 = np.exp(-step)
+        ea, eb = np.exp(x0 - step), np.exp(-x0 - step)  # e^{x_1}, e^{−x_{−1}}; then × q1 per n
         for n in range(1, 2 + int(np.ceil(39.2 / step))):
-            ea, eb = np.exp(x0 - n * step), np.exp(-x0 - n * step)  # e^{x_n}, e^{−x_{−n}}
-            sa, sb = 2.0 * ea / (1.0 + ea * ea), 2.0 * eb / (1.0 + eb * eb)
-            ta_tb = 2.0 * (ea * ea - eb * eb) / ((1.0 + ea * ea) * (1.0 + eb * eb))  # tanh x_n + tanh x_{−n}
-            sign = -1.0 if n % 2 else 1.0
-            sn += sign * ta_tb
-            cn += sign * (sa + sb)
-            dn += sa + sb
+            ea2, eb2 = ea * ea, eb * eb
+            da, db = 1.0 + ea2, 1.0 + eb2
+            sech_sum = 2.0 * (ea / da + eb / db)
+            tanh_sum = 2.0 * (ea2 - eb2) / (da * db)  # tanh x_n + tanh x_{−n}
+            if n % 2:
+                sn -= tanh_sum
+                cn -= sech_sum
+            else:
+                sn += tanh_sum
+                cn += sech_sum
+            dn += sech_sum
+            ea *= q1
+            eb *= q1
     scale = shift / np.sqrt(1.0 - m1)
     return sn * scale, cn * scale, dn * shift
 
