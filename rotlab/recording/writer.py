@@ -42,7 +42,8 @@ def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_
         rec = rr.RecordingStream("rotlab", recording_id=uuid.uuid4())
         rec.save(tmp, default_blueprint=layout.blueprint(list(traj.invariants), traj.euler_angles is not None))
         _write_static(rec, traj)
-        _write_series(rec, traj, chunk_rows)
+        with np.errstate(over="ignore"):  # display-only float32 casts of a run that blew up
+            _write_series(rec, traj, chunk_rows)
         rec.flush()
         rec.disconnect()
         os.replace(tmp, path)

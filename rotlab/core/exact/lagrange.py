@@ -487,7 +487,7 @@ def _nutating(st: _State, x1: float, x2: float) -> _Nutating:
         gap = _third_root_gap(st, e_m if up else e_p, delta, -1 if up else +1)
     gap = max(gap, 0.0)
     big_b = gap + abs(st.beta) * delta
-    lam = np.sqrt(0.5 * big_b)
+    lam = 0.5 * np.sqrt(big_b)
     m, mc = abs(st.beta) * delta / big_b, max(gap / big_b, _MC_MIN)
     mod = _Modulus.of(m, mc)
     # initial phase: sn²(w₀) = |x_start|/Δ, cn²(w₀) = |x_end|/Δ, sign from u̇₀
