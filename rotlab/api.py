@@ -44,7 +44,7 @@ def run_scene(scene: Scene, progress: ProgressCallback | None = None) -> Traject
     scenario = scene.scenario
     chosen, reason = choose_method(scene, scenario.solver.method)
     s = scenario.solver
-    settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps)
+    settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps, order=s.order)
     t = scenario.time.sample_times()
     started = time.perf_counter()
     solution = chosen.solve(scene, t, settings, progress)

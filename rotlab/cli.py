@@ -108,6 +108,31 @@ def validate(configs: Annotated[list[Path], typer.Argument(help="Scenario TOML f
 
 
 @app.command()
+def batch(
+    paths: Annotated[list[Path], typer.Argument(help="Scenario files and/or directories of *.toml files.")],
+    outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Where recordings, summary.json and junit.xml go.")] = Path("batch-out"),
+    jobs: Annotated[int, typer.Option("-j", "--jobs", min=1, help="Parallel processes.")] = 2,
+) -> None:
+    """Run scenario suites in parallel; exit 1 if any scenario errs or breaks a [checks] bound."""
+    from rotlab.batch.reports import table, write_junit, write_summary
+    from rotlab.batch.runner import collect_configs, run_batch
+    from rotlab.errors import InputError
+
+    try:
+        configs = collect_configs(paths)
+        if outdir.exists() and not outdir.is_dir():
+            raise InputError(f"--outdir {outdir}", "is a file: give a directory")
+    except InputError as exc:
+        _fail(exc)
+    results = run_batch(configs, outdir, jobs)
+    write_summary(results, outdir / "summary.json")
+    write_junit(results, outdir / "junit.xml")
+    typer.echo(table(results))
+    if any(r.status != "pass" for r in results):
+        raise typer.Exit(1)
+
+
+@app.command()
 def new(kind: Annotated[str, typer.Argument(help="euler, lagrange or general.")]) -> None:
     """Print a commented scenario template: `rotlab new lagrange > my_top.toml`."""
     from importlib.resources import files

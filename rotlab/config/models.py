@@ -246,6 +246,7 @@ class Solver(_Model):
     rtol: PositiveReal = 1e-10  # adaptive methods
     atol: PositiveReal = 1e-12
     max_steps: Annotated[int, Field(gt=0, strict=True)] = 200_000_000
+    order: Annotated[int, Field(ge=1, le=12, strict=True)] | None = None  # methods offering several orders
 
     @field_validator("method")
     @classmethod
@@ -264,6 +265,35 @@ class Output(_Model):
     euler_angles: bool = False
 
 
+INVARIANT_NAMES = ("energy", "quaternion_norm", "L_norm", "L_space", "L_vertical", "L_symmetry")
+
+
+class FlipPeriod(_Model):
+    """Expected period (s) of the sign reversals of one body component of ω (a full period is
+    two reversals), e.g. the intermediate-axis flip."""
+
+    expected: PositiveReal  # s
+    rtol: PositiveReal = 0.01  # allowed relative deviation
+    axis: Literal["x", "y", "z"] = "y"  # body axis whose ω component flips
+
+
+class Checks(_Model):
+    """Accuracy checks evaluated by ``rotlab batch`` (and reported by ``rotlab run``)."""
+
+    max_drift: dict[str, PositiveReal] = {}  # invariant name → bound on max |relative drift|
+    flip_period: FlipPeriod | None = None
+
+    @field_validator("max_drift")
+    @classmethod
+    def _known_invariants(cls, bounds: dict[str, float]) -> dict[str, float]:
+        for name in bounds:
+            if name not in INVARIANT_NAMES:
+                raise PydanticCustomError(
+                    "rotlab", "unknown invariant '{name}': choose from {choices}", {"name": name, "choices": ", ".join(INVARIANT_NAMES)}
+                )
+        return bounds
+
+
 class Scenario(_Model):
     title: str = ""
     description: str = ""
@@ -273,6 +303,7 @@ class Scenario(_Model):
     time: Time
     solver: Solver = Solver()
     output: Output = Output()
+    checks: Checks = Checks()
 
     @model_validator(mode="after")
     def _loads_need_body_data(self) -> Scenario:

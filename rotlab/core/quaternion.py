@@ -108,6 +108,20 @@ def from_axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.concatenate([[np.cos(0.5 * angle)], np.sin(0.5 * angle) * e])
 
 
+def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation Λ taking direction a to direction b (R(Λ) â = b̂)."""
+    a = np.asarray(a, dtype=float) / np.linalg.norm(a)
+    b = np.asarray(b, dtype=float) / np.linalg.norm(b)
+    axis = np.cross(a, b)
+    sin, cos = np.linalg.norm(axis), float(np.dot(a, b))
+    if sin < 1e-15:
+        if cos > 0.0:
+            return np.array([1.0, 0.0, 0.0, 0.0])
+        helper = np.eye(3)[int(np.argmin(np.abs(a)))]  # half turn about any axis ⊥ a
+        return np.concatenate([[0.0], np.cross(a, helper) / np.linalg.norm(np.cross(a, helper))])
+    return from_axis_angle(axis, np.arctan2(sin, cos))
+
+
 def from_euler_313(psi: float, theta: float, phi: float) -> np.ndarray:
     """Classical 3-1-3 Euler angles: Λ = Λ_z(ψ) ∘ Λ_x(θ) ∘ Λ_z(φ) (precession, nutation, spin)."""
     z = np.array([0.0, 0.0, 1.0])

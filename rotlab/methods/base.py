@@ -25,6 +25,7 @@ class Settings:
     rtol: float = 1e-10
     atol: float = 1e-12
     max_steps: int = 200_000_000
+    order: int | None = None  # composition / method order where a method offers several
 
 
 @dataclass

@@ -1,0 +1,1 @@
+"""Batch runs of scenario suites (CI) — runner and reports."""
