@@ -13,6 +13,7 @@ from rotlab.methods.base import Method
 METHOD_MODULES: dict[str, str] = {
     "rk4": "rotlab.methods.rk4",
     "dop853": "rotlab.methods.dop853",
+    "exact": "rotlab.methods.exact",
 }
 
 METHOD_NAMES: tuple[str, ...] = ("auto", *METHOD_MODULES)

@@ -1,0 +1,68 @@
+"""``exact``: evaluate the closed-form / elliptic-function solution at every sample time —
+no time stepping.  Torque-free bodies (``rotlab.core.exact.torque_free``) and the Lagrange top
+(``rotlab.core.exact.lagrange``).
+
+The Lagrange solution is written for a canonical frame: symmetry axis = body z, centre of mass
+at (0, 0, l) with l > 0, field along −z in space.  A scene is mapped there by a body rotation B
+(e_sym → e_z; the two equal moments stay in the plane ⊥ e_z, so the inertia is diag(A, A, C))
+and a space rotation S (−F̂ → e_z):  Λ_c = Λ_S ∘ Λ ∘ Λ̃_B,  ω_c = B ω, and back.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rotlab.core import quaternion as quat
+from rotlab.methods.base import ProgressCallback, Settings, Solution
+from rotlab.scene.scene import LAGRANGE, TORQUE_FREE, Scene
+from rotlab.scene.loads import active_forces
+
+E_Z = np.array([0.0, 0.0, 1.0])
+
+
+class Exact:
+    name = "exact"
+    summary = "closed-form solution evaluated at the sample times (no stepping)"
+
+    def unsupported(self, scene: Scene) -> str | None:
+        if scene.kind in (TORQUE_FREE, LAGRANGE):
+            return None
+        return f"no exact solution for a {scene.kind} scene ({scene.kind_reason}); exact covers torque-free bodies and the Lagrange top"
+
+    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+        if scene.kind == TORQUE_FREE:
+            from rotlab.core.exact.torque_free import torque_free_solution
+
+            q, omega = torque_free_solution(scene.moments, scene.omega0, scene.q0, float(t[0]), t)
+        else:
+            q, omega = _lagrange(scene, t)
+        state = np.zeros((t.shape[0], 8))
+        state[:, 0:4] = q
+        state[:, 4:7] = omega
+        if progress is not None:
+            progress(t.shape[0], t.shape[0])
+        finite = np.all(np.isfinite(state), axis=1)
+        valid = t.shape[0] if finite.all() else int(np.argmin(finite))
+        failure = None if valid == t.shape[0] else f"exact solution not finite at t = {t[valid]:.9g} s"
+        return Solution(t=t, state=state, valid=valid, failure=failure, details={"evaluated samples": int(t.shape[0])})
+
+
+def _lagrange(scene: Scene, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    from rotlab.core.exact.lagrange import lagrange_top_solution
+
+    (row,) = active_forces(scene.loads)
+    arm, force = row[:3], row[3:]
+    axis = scene.symmetry_axis
+    body_q = quat.between(axis, E_Z)  # B: principal → canonical body frame
+    space_q = quat.between(-force, E_Z)  # S: space → canonical space ("up" = −F̂ → e_z)
+    B = quat.to_matrix(body_q)
+    c_moment = float(axis @ (scene.moments * axis))
+    a_moment = 0.5 * (float(np.sum(scene.moments)) - c_moment)
+    mgl = float(np.linalg.norm(force) * (arm @ axis))
+    q_c0 = quat.multiply_array(quat.multiply_array(space_q, scene.q0), quat.conjugate_array(body_q))
+    q_c, omega_c = lagrange_top_solution(a_moment, c_moment, mgl, B @ scene.omega0, q_c0, float(t[0]), t)
+    q = quat.multiply_array(quat.multiply_array(quat.conjugate_array(space_q), q_c), body_q)
+    return q, omega_c @ B
+
+
+METHOD = Exact()
