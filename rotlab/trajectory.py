@@ -100,8 +100,16 @@ def _build(scene: Scene, solution: Solution, stats: RunStats, euler_angles: bool
         work=work if scene.has_work else None,
         total=total,
         invariants=invariants,
-        euler_angles=quat.to_euler_313(q_user / np.linalg.norm(q_user, axis=1, keepdims=True)) if euler_angles else None,
+        euler_angles=_continuous_euler_angles(q_user) if euler_angles else None,
     )
+
+
+def _continuous_euler_angles(q: np.ndarray) -> np.ndarray:
+    """3-1-3 angles along the run with ψ and φ unwrapped (continuous in time, not cut at ±π)."""
+    angles = quat.to_euler_313(q / np.linalg.norm(q, axis=1, keepdims=True))
+    angles[:, 0] = np.unwrap(angles[:, 0])
+    angles[:, 2] = np.unwrap(angles[:, 2])
+    return angles
 
 
 def _potential(scene: Scene, unit_q: np.ndarray) -> np.ndarray:

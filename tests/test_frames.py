@@ -129,3 +129,16 @@ def test_gravity_torque_and_potential_in_the_right_frames():
     expected_px = m * g * l * np.sin(theta) / 0.05 * dt
     assert traj.omega[1, 0] == pytest.approx(expected_px, rel=1e-3)
     assert abs(traj.omega[1, 1]) < 1e-12
+
+
+def test_euler_angles_continuous_and_consistent():
+    """Recorded (ψ, θ, φ) rebuild Λ (up to sign) and ψ, φ are unwrapped: no jumps of 2π."""
+    from tests.conftest import CONFIGS
+
+    traj = rotlab.simulate(rotlab.load(CONFIGS / "lagrange.toml", duration=1.0))
+    angles = traj.euler_angles
+    rebuilt = np.array([quat.from_euler_313(*a) for a in angles])
+    unit = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
+    assert np.max(same_rotation_error(rebuilt, unit)) < 1e-9
+    assert np.max(np.abs(np.diff(angles[:, 2]))) < 1.0  # spin 150 rad/s at 200 Hz: 0.75 rad per sample
+    assert angles[-1, 2] - angles[0, 2] > 100.0  # φ accumulates, not wrapped
