@@ -133,6 +133,34 @@ def batch(
 
 
 @app.command()
+def sweep(
+    config: Annotated[Path, typer.Argument(help="Scenario TOML file with a [sweep] section.")],
+    outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Where results.csv/.parquet and the comparison recording go.")] = Path("sweep-out"),
+    jobs: Annotated[int, typer.Option("-j", "--jobs", min=1, help="Local processes.")] = 2,
+    dask: Annotated[Optional[str], typer.Option("--dask", help="Run on an existing Dask cluster: tcp://HOST:PORT.")] = None,
+) -> None:
+    """Run a parameter sweep; exit 1 if any case errs or breaks a [checks] bound."""
+    from rotlab.errors import InputError
+    from rotlab.sweep.report import terminal_table, write_comparison, write_results
+    from rotlab.sweep.runner import plan, run_sweep
+
+    try:
+        if outdir.exists() and not outdir.is_dir():
+            raise InputError(f"--outdir {outdir}", "is a file: give a directory")
+        sweep_plan = plan(config)
+        outdir.mkdir(parents=True, exist_ok=True)
+        outcomes, how = run_sweep(sweep_plan, jobs=jobs, dask_address=dask)
+    except InputError as exc:
+        _fail(exc)
+    write_results(outcomes, outdir)
+    write_comparison(outcomes, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
+    typer.echo(terminal_table(outcomes, how))
+    typer.echo(f"wrote {outdir / 'results.csv'}, {outdir / 'results.parquet'}, {outdir / (config.stem + '_sweep.rrd')}")
+    if any(o.status != "pass" for o in outcomes):
+        raise typer.Exit(1)
+
+
+@app.command()
 def new(kind: Annotated[str, typer.Argument(help="euler, lagrange or general.")]) -> None:
     """Print a commented scenario template: `rotlab new lagrange > my_top.toml`."""
     from importlib.resources import files

@@ -17,6 +17,9 @@ class InputError(Exception):
         self.where = where
         self.message = message
 
+    def __reduce__(self):  # picklable across worker processes
+        return (type(self), (self.where, self.message))
+
 
 class RunFailure(Exception):
     """A run stopped (non-finite state, step budget exhausted): the valid samples are kept."""

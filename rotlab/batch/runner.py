@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import time
 import traceback
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Iterable
 
 from rotlab.errors import InputError
+from rotlab.parallel import process_pool
 
 
 @dataclass
@@ -90,5 +90,5 @@ def run_batch(configs: list[Path], outdir: Path, jobs: int) -> list[CaseResult]:
     outputs = [outdir / f"{name}.rrd" for name in output_names(configs)]
     if jobs <= 1 or len(configs) == 1:
         return [run_case(c, o) for c, o in zip(configs, outputs)]
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    with process_pool(jobs) as pool:
         return list(pool.map(run_case, configs, outputs))

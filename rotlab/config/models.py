@@ -294,6 +294,50 @@ class Checks(_Model):
         return bounds
 
 
+class Uniform(_Model):
+    uniform: tuple[Real, Real]  # draw uniformly in [low, high]
+
+
+class LogUniform(_Model):
+    log_uniform: tuple[PositiveReal, PositiveReal]  # draw log-uniformly in [low, high]
+
+
+class Normal(_Model):
+    normal: tuple[Real, PositiveReal]  # (mean, standard deviation)
+
+
+class Sphere(_Model):
+    sphere: PositiveReal  # a 3-vector of this length in a uniformly random direction
+
+
+Distribution = Union[Uniform, LogUniform, Normal, Sphere]
+GridValues = list[Union[Real, list[Real]]]
+
+
+class Sweep(_Model):
+    """Vary config fields: grid values (every combination) and random draws (``samples`` per
+    grid point, reproducible from ``seed`` and the case number).  Keys are dotted paths such as
+    "initial.omega", "initial.omega[2]", "body.principal_moments[0]", "loads[0].value"."""
+
+    parameters: dict[str, Union[Distribution, GridValues]]
+    samples: Annotated[int, Field(ge=1, le=1_000_000, strict=True)] | None = None
+    seed: Annotated[int, Field(ge=0, strict=True)] = 0
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Sweep:
+        if not self.parameters:
+            raise _invalid("parameters", "give at least one parameter to vary")
+        random = [k for k, v in self.parameters.items() if not isinstance(v, list)]
+        for key, values in self.parameters.items():
+            if isinstance(values, list) and not values:
+                raise _invalid(f"parameters.{key}", "a grid needs at least one value")
+        if random and self.samples is None:
+            raise _invalid("samples", f"random parameters ({', '.join(random)}) need samples = N draws")
+        if not random and self.samples is not None:
+            raise _invalid("samples", "samples applies to random parameters only: give a distribution or remove samples")
+        return self
+
+
 class Scenario(_Model):
     title: str = ""
     description: str = ""
@@ -304,6 +348,7 @@ class Scenario(_Model):
     solver: Solver = Solver()
     output: Output = Output()
     checks: Checks = Checks()
+    sweep: Sweep | None = None  # used by `rotlab sweep`; `rotlab run` runs the base scenario
 
     @model_validator(mode="after")
     def _loads_need_body_data(self) -> Scenario:

@@ -1,0 +1,124 @@
+"""Sweeps: reproducible cases, ensemble kernel = per-case runs, Dask, failing cases reported."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+import rotlab
+from rotlab.config import parse_scenario
+from rotlab.sweep.cases import apply, expand, parse_path
+from rotlab.sweep.runner import plan, run_ensemble, run_sweep, run_sweep_case
+from tests.conftest import CONFIGS, VALID_BODY
+
+SWEEP = VALID_BODY + """
+[initial]
+omega = [0.1, 2.0, 0.1]
+[time]
+end = 2.0
+sample_rate = 20
+[solver]
+method = "rk4"
+step = 0.01
+[sweep]
+seed = 3
+samples = 2
+[sweep.parameters]
+"initial.omega[0]" = [0.0, 0.5]
+"initial.omega[2]" = { uniform = [-0.2, 0.2] }
+"""
+
+
+def test_parse_path():
+    assert parse_path("loads[0].value[2]") == ["loads", 0, "value", 2]
+    assert parse_path("body.mass") == ["body", "mass"]
+
+
+def test_cases_are_grid_times_draws_and_reproducible(write):
+    p = plan(write("s.toml", SWEEP))
+    assert len(p.cases) == 4
+    assert [c.values["initial.omega[0]"] for c in p.cases] == [0.0, 0.0, 0.5, 0.5]
+    again = expand(p.base.sweep)
+    assert [c.values for c in again] == [c.values for c in p.cases]
+    rng = np.random.default_rng([3, 2])  # case 2 alone, from seed and number
+    assert p.cases[2].values["initial.omega[2]"] == rng.uniform(-0.2, 0.2)
+    assert p.scenarios[2].initial.omega == (0.5, 2.0, p.cases[2].values["initial.omega[2]"])
+
+
+def test_sphere_draw_has_the_magnitude(write):
+    text = SWEEP.replace('"initial.omega[0]" = [0.0, 0.5]\n"initial.omega[2]" = { uniform = [-0.2, 0.2] }', '"initial.omega" = { sphere = 3.0 }')
+    p = plan(write("s.toml", text))
+    for s in p.scenarios:
+        assert np.linalg.norm(s.initial.omega) == pytest.approx(3.0, rel=1e-14)
+
+
+def test_ensemble_equals_individual_runs_bit_for_bit(write):
+    p = plan(write("s.toml", SWEEP))
+    outcomes, how = run_sweep(p)
+    assert "ensemble" in how
+    for case, scenario, outcome in zip(p.cases, p.scenarios, outcomes):
+        single = rotlab.simulate(scenario)
+        np.testing.assert_array_equal(outcome.omega, single.omega)
+        assert outcome.drift == single.max_drift()
+
+
+def test_sweep_cli_writes_tables_and_comparison(cli, write, tmp_path):
+    path = write("s.toml", SWEEP)
+    result = cli("sweep", str(path), "-o", "out")
+    assert result.exit_code == 0, result.output
+    with open(tmp_path / "out" / "results.csv") as f:
+        table = list(csv.DictReader(f))
+    assert len(table) == 4 and {r["status"] for r in table} == {"pass"}
+    assert pq.read_table(tmp_path / "out" / "results.parquet").num_rows == 4
+    assert (tmp_path / "out" / "s_sweep.rrd").stat().st_size > 0
+
+
+def test_failing_case_is_reported_and_the_rest_complete(cli, write, tmp_path):
+    text = SWEEP.replace('"initial.omega[0]" = [0.0, 0.5]', '"body.principal_moments[0]" = [1.0, 9.0]')  # 9 > 2 + 2.5
+    result = cli("sweep", str(write("s.toml", text)), "-o", "out", "-j", "2")
+    assert result.exit_code == 1
+    assert "triangle inequality" in result.stdout and "2 passed, 2 failed" in result.stdout
+
+
+def test_bad_sweep_key_is_bad_input(cli, write):
+    text = SWEEP.replace('"initial.omega[0]"', '"initial.omgea[0]"')
+    result = cli("sweep", str(write("s.toml", text)))
+    assert result.exit_code == 2 and "initial.omgea" in result.stderr
+
+
+def test_sweep_needs_samples_for_random_parameters(cli, write):
+    result = cli("sweep", str(write("s.toml", SWEEP.replace("samples = 2\n", ""))))
+    assert result.exit_code == 2 and "sweep.samples" in result.stderr
+
+
+def test_dask_local_cluster_gives_the_same_results(write):
+    distributed = pytest.importorskip("dask.distributed")
+    text = SWEEP.replace('method = "rk4"', 'method = "dop853"')
+    p = plan(write("s.toml", text))
+    local = [run_sweep_case(c, s) for c, s in zip(p.cases, p.scenarios)]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        remote, how = run_sweep(p, dask_address=cluster.scheduler_address)
+    assert "Dask" in how
+    for a, b in zip(local, remote):
+        assert a.index == b.index and a.status == b.status == "pass"
+        np.testing.assert_array_equal(a.omega, b.omega)
+
+
+def test_unreachable_dask_scheduler_is_bad_input(write, monkeypatch):
+    pytest.importorskip("dask.distributed")
+    from rotlab.errors import InputError
+    from rotlab.sweep import runner
+
+    monkeypatch.setattr(runner, "DASK_CONNECT_TIMEOUT", "2s")
+
+    p = plan(write("s.toml", SWEEP))
+    with pytest.raises(InputError, match="cannot reach a Dask scheduler"):
+        run_sweep(p, dask_address="tcp://127.0.0.1:9")
+
+
+def test_shipped_sweep_config_validates():
+    p = plan(CONFIGS / "sweep_flip.toml")
+    assert len(p.cases) == 12
