@@ -161,6 +161,25 @@ def sweep(
 
 
 @app.command()
+def snapshot(
+    recording: Annotated[Path, typer.Argument(help="A recording written by `rotlab run`.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="PNG file to write.")] = Path("snapshot.png"),
+    at: Annotated[Optional[float], typer.Option("--time", help="Simulation time in s (default: the end).")] = None,
+    size: Annotated[str, typer.Option("--size", help="Window size WIDTHxHEIGHT.")] = "1600x900",
+) -> None:
+    """Render the Rerun viewer headless at a given time to a PNG (for reports)."""
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.recording.snapshot import parse_size
+    from rotlab.recording.snapshot import snapshot as render
+
+    try:
+        path = render(recording, output, at, parse_size(size))
+    except (InputError, RunFailure) as exc:
+        _fail(exc)
+    typer.echo(f"wrote {path}")
+
+
+@app.command()
 def new(kind: Annotated[str, typer.Argument(help="euler, lagrange or general.")]) -> None:
     """Print a commented scenario template: `rotlab new lagrange > my_top.toml`."""
     from importlib.resources import files

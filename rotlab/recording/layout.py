@@ -5,6 +5,7 @@ Timeline ``sim_time`` (duration).  Vectors name their frame in the path or the s
 
 from __future__ import annotations
 
+import rerun as rr
 import rerun.blueprint as rrb
 
 TIMELINE = "sim_time"
@@ -13,6 +14,12 @@ BODY = "/world/body"  # Transform3D: Λ (body → space); shape and body axes be
 BODY_SHAPE = "/world/body/shape"
 BODY_AXES = "/world/body/axes"
 BODY_ARM = "/world/body/arm"  # fixed point → centre of mass
+BODY_POLHODE = "/world/body/polhode"  # torque-free: tip of scaled ω in the body frame
+AXIS_PATH = "/world/axis_path"  # static: path of the symmetry-axis (or body z) tip
+AXIS_TIP = "/world/axis_tip"  # the tip now
+FIELD = "/world/gravity"  # direction of the uniform field
+HERPOLHODE = "/world/herpolhode"  # torque-free: tip of scaled ω in space
+INVARIABLE_PLANE = "/world/invariable_plane"  # torque-free: plane ⊥ L carrying the herpolhode
 OMEGA_ARROW = "/world/omega"  # space frame, scaled
 L_ARROW = "/world/L"  # space frame, scaled
 QUATERNION = "/body/quaternion"  # [q0, q1, q2, q3], float64
@@ -20,6 +27,7 @@ OMEGA = "/body/omega"  # body frame, rad/s
 L_SPACE = "/world/L_space"  # space frame, kg·m²/s
 ENERGY = "/energy"  # J
 INVARIANTS = "/invariants"  # /invariants/<name>: relative drift
+INVARIANTS_LOG = "/invariants_log10"  # /invariants_log10/<name>: log10 |relative drift| (plotted)
 EULER_ANGLES = "/euler_angles"  # (ψ, θ, φ) rad
 INFO = "/info"  # TextDocument: scenario, method, run statistics
 
@@ -29,10 +37,13 @@ def blueprint(invariants: list[str], euler_angles: bool) -> rrb.Blueprint:
         rrb.TimeSeriesView(origin=OMEGA, name="ω, body frame (rad/s)"),
         rrb.TimeSeriesView(origin=L_SPACE, name="L, space frame (kg·m²/s)"),
         rrb.TimeSeriesView(origin=ENERGY, name="Energy (J)"),
-        rrb.TimeSeriesView(origin=INVARIANTS, name="Invariant drift (relative)"),
+        rrb.TimeSeriesView(origin=INVARIANTS_LOG, name="Invariant drift, log10 |relative|"),
     ]
     if euler_angles:
-        plots.append(rrb.TimeSeriesView(origin=EULER_ANGLES, name="Euler angles 3-1-3 (rad)"))
+        plots.append(rrb.TimeSeriesView(origin=EULER_ANGLES, name="Euler angles ψ, φ (rad)",
+                                        overrides={EULER_ANGLES: rr.SeriesLines.from_fields(visible_series=[True, False, True])}))
+        plots.append(rrb.TimeSeriesView(origin=EULER_ANGLES, name="Nutation θ (rad)",
+                                        overrides={EULER_ANGLES: rr.SeriesLines.from_fields(visible_series=[False, True, False])}))
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Tabs(

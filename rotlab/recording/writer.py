@@ -5,19 +5,23 @@ from __future__ import annotations
 
 import os
 import uuid
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import rerun as rr
 
+from rotlab.core import quaternion as quat
 from rotlab.core.quaternion import rotate_to_space_array
 from rotlab.errors import InputError
 from rotlab.recording import layout
+from rotlab.recording.geometry import Geometry, decimate, scene_geometry
 from rotlab.recording.report import run_report
-from rotlab.recording.shapes import equivalent_ellipsoid
+from rotlab.recording.shapes import Ellipsoid, equivalent_ellipsoid
 from rotlab.trajectory import Trajectory
 
 CHUNK_ROWS = 4096
+LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
 AXIS_COLORS = [(230, 60, 60), (60, 200, 60), (70, 110, 240)]
 
 
@@ -41,9 +45,10 @@ def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_
     try:
         rec = rr.RecordingStream("rotlab", recording_id=uuid.uuid4())
         rec.save(tmp, default_blueprint=layout.blueprint(list(traj.invariants), traj.euler_angles is not None))
-        _write_static(rec, traj)
-        with np.errstate(over="ignore"):  # display-only float32 casts of a run that blew up
-            _write_series(rec, traj, chunk_rows)
+        with np.errstate(over="ignore", invalid="ignore"):  # display-only float32 casts of a run that blew up
+            views = _views(traj)
+            _write_static(rec, traj, views)
+            _write_series(rec, traj, views, chunk_rows)
         rec.flush()
         rec.disconnect()
         os.replace(tmp, path)
@@ -71,6 +76,9 @@ def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
     out[layout.ENERGY] = (np.column_stack(energy), names)
     for name, drift in traj.invariants.items():
         out[f"{layout.INVARIANTS}/{name}"] = (drift[:, None], [INVARIANT_LABELS.get(name, name)])
+        with np.errstate(divide="ignore"):
+            magnitude = np.log10(np.maximum(np.abs(drift), LOG_FLOOR))
+        out[f"{layout.INVARIANTS_LOG}/{name}"] = (magnitude[:, None], [f"log10 |{INVARIANT_LABELS.get(name, name)}|"])
     if traj.euler_angles is not None:
         out[layout.EULER_ANGLES] = (traj.euler_angles, ["ψ precession (rad)", "θ nutation (rad)", "φ spin (rad)"])
     return out
@@ -86,9 +94,29 @@ INVARIANT_LABELS = {
 }
 
 
-def _write_static(rec: rr.RecordingStream, traj: Trajectory) -> None:
+@dataclass(frozen=True)
+class _Views:
+    """What the static and temporal parts share: computed once per recording."""
+
+    shape: Ellipsoid
+    unit_q: np.ndarray  # (N, 4) normalised, for display
+    omega_space: np.ndarray  # (N, 3)
+    omega_scale: float  # arrow length per rad/s
+    L_scale: float  # arrow length per kg·m²/s
+    geometry: Geometry
+
+
+def _views(traj: Trajectory) -> _Views:
     shape = equivalent_ellipsoid(traj.scene.scenario.body)
-    size = shape.size
+    unit_q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
+    omega_space = rotate_to_space_array(unit_q, traj.omega)
+    omega_scale = _arrow_scale(omega_space, shape.size)
+    geometry = scene_geometry(traj, unit_q, omega_space, omega_scale, reach=1.3 * shape.size)
+    return _Views(shape, unit_q, omega_space, omega_scale, _arrow_scale(traj.L_space, shape.size), geometry)
+
+
+def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views) -> None:
+    shape, size, geo = views.shape, views.shape.size, views.geometry
     rec.log(
         layout.BODY_SHAPE,
         rr.Ellipsoids3D(
@@ -108,34 +136,46 @@ def _write_static(rec: rr.RecordingStream, traj: Trajectory) -> None:
     r_c = np.asarray(traj.scene.scenario.body.center_of_mass, dtype=float)
     if np.any(r_c != 0.0):
         rec.log(layout.BODY_ARM, rr.LineStrips3D([[np.zeros(3), r_c]], colors=[(40, 40, 40)], labels=["r_c"]), static=True)
+    rec.log(layout.AXIS_PATH, rr.LineStrips3D([decimate(geo.axis_tips)], colors=[(120, 190, 255)], radii=[0.004 * size]), static=True)
+    rec.log(layout.AXIS_TIP, rr.Points3D.from_fields(colors=[(120, 190, 255)], radii=[0.02 * size], labels=[geo.axis_label]), static=True)
+    if geo.field_up is not None:
+        rec.log(layout.FIELD, rr.Arrows3D(vectors=[-geo.field_up * 0.8 * size], origins=[geo.field_up * 1.6 * size],
+                                          colors=[(150, 150, 150)], labels=["g (field)"]), static=True)
+    if geo.invariable_plane is not None:
+        plane = geo.invariable_plane
+        rec.log(layout.INVARIABLE_PLANE, rr.Boxes3D(
+            half_sizes=[[plane.half_size, plane.half_size, 1e-3 * plane.half_size]], centers=[plane.center],
+            quaternions=[rr.Quaternion(xyzw=_xyzw(quat.between([0.0, 0.0, 1.0], plane.normal)))],
+            colors=[(90, 90, 140, 90)], fill_mode="solid", labels=["invariable plane (normal to L)"]), static=True)
+        rec.log(layout.HERPOLHODE, rr.LineStrips3D([geo.herpolhode], colors=[(240, 150, 30)], radii=[0.003 * size],
+                                                   labels=["herpolhode"]), static=True)
+        rec.log(layout.BODY_POLHODE, rr.LineStrips3D([geo.polhode], colors=[(255, 210, 120)], radii=[0.003 * size],
+                                                     labels=["polhode"]), static=True)
     for entity, (_, names) in series(traj).items():
         rec.log(entity, rr.SeriesLines(names=names), static=True)
+    for entity, scale, label, color in ((layout.OMEGA_ARROW, views.omega_scale, "ω", (240, 150, 30)),
+                                        (layout.L_ARROW, views.L_scale, "L", (150, 60, 220))):
+        rec.log(entity, rr.Arrows3D.from_fields(labels=[f"{label} ×{scale:.3g}"], colors=[color]), static=True)
     rec.log(layout.INFO, rr.TextDocument(run_report(traj), media_type="text/markdown"), static=True)
 
 
-def _write_series(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int) -> None:
+def _write_series(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chunk_rows: int) -> None:
     n = traj.t.shape[0]
-    if n == 0:
-        return
     ns = np.round(traj.t * 1e9).astype(np.int64).astype("timedelta64[ns]")
-    size = equivalent_ellipsoid(traj.scene.scenario.body).size
-    unit_q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
-    omega_space = rotate_to_space_array(unit_q, traj.omega)
-    arrows = {
-        layout.OMEGA_ARROW: (omega_space, _arrow_scale(omega_space, size), "ω", (240, 150, 30)),
-        layout.L_ARROW: (traj.L_space, _arrow_scale(traj.L_space, size), "L", (150, 60, 220)),
+    vectors = {
+        layout.OMEGA_ARROW: views.omega_space * views.omega_scale,
+        layout.L_ARROW: traj.L_space * views.L_scale,
     }
     all_series = series(traj)
     for start in range(0, n, chunk_rows):
         rows = slice(start, min(start + chunk_rows, n))
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
-        rec.send_columns(layout.BODY, index, rr.Transform3D.columns(quaternion=_xyzw(unit_q[rows])))
-        for entity, (vectors, scale, _, _) in arrows.items():
-            rec.send_columns(entity, index, rr.Arrows3D.columns(vectors=vectors[rows] * scale))
+        rec.send_columns(layout.BODY, index, rr.Transform3D.columns(quaternion=_xyzw(views.unit_q[rows])))
+        rec.send_columns(layout.AXIS_TIP, index, rr.Points3D.columns(positions=views.geometry.axis_tips[rows]))
+        for entity, values in vectors.items():
+            rec.send_columns(entity, index, rr.Arrows3D.columns(vectors=values[rows]))
         for entity, (values, _) in all_series.items():
             rec.send_columns(entity, index, rr.Scalars.columns(scalars=values[rows]))
-    for entity, (_, scale, label, color) in arrows.items():
-        rec.log(entity, rr.Arrows3D.from_fields(labels=[f"{label} ×{scale:.3g}"], colors=[color]), static=True)
 
 
 def _arrow_scale(vectors: np.ndarray, size: float) -> float:

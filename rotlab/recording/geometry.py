@@ -1,0 +1,62 @@
+"""Static geometry that explains a run in the 3D view.
+
+* the path of the tip of the symmetry axis (Lagrange top) or of body z, on a sphere of radius
+  ``reach`` (nutation loops and cusps);
+* the field direction, where a uniform field acts;
+* torque-free bodies — Poinsot's construction, with ω drawn at the ω-arrow scale s: the
+  herpolhode (tip of s·ω in space) lies on the invariable plane ⊥ L at distance s·2T/|L| from
+  the fixed point, and the polhode (tip of s·ω in the body frame) on the body's inertia
+  ellipsoid ω·Iω = 2T.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rotlab.core import quaternion as quat
+from rotlab.trajectory import Trajectory
+
+MAX_PATH_POINTS = 20_000
+
+
+@dataclass(frozen=True)
+class Plane:
+    center: np.ndarray
+    normal: np.ndarray
+    half_size: float
+
+
+@dataclass(frozen=True)
+class Geometry:
+    axis_label: str
+    axis_body: np.ndarray  # unit, user's body frame
+    axis_tips: np.ndarray  # (N, 3) space frame, one per sample
+    field_up: np.ndarray | None  # unit "up" (against the field), space frame
+    herpolhode: np.ndarray | None  # (M, 3) space frame
+    polhode: np.ndarray | None  # (M, 3) user's body frame
+    invariable_plane: Plane | None
+
+
+def scene_geometry(traj: Trajectory, unit_q: np.ndarray, omega_space: np.ndarray, omega_scale: float, reach: float) -> Geometry:
+    scene = traj.scene
+    if scene.symmetry_axis is not None:
+        axis, label = scene.axes @ scene.symmetry_axis, "symmetry axis tip"
+    else:
+        axis, label = np.array([0.0, 0.0, 1.0]), "body z tip"
+    tips = quat.rotate_to_space_array(unit_q, np.broadcast_to(reach * axis, unit_q.shape[:-1] + (3,)))
+    herpolhode = polhode = plane = None
+    if scene.kind == "torque_free" and len(traj.t) and np.linalg.norm(traj.L_space[0]) > 0.0:
+        stride = max(1, len(traj.t) // MAX_PATH_POINTS)
+        herpolhode = omega_space[::stride] * omega_scale
+        polhode = traj.omega[::stride] * omega_scale
+        l_hat = traj.L_space[0] / np.linalg.norm(traj.L_space[0])
+        distance = omega_scale * 2.0 * traj.kinetic[0] / np.linalg.norm(traj.L_space[0])
+        extent = float(np.max(np.linalg.norm(herpolhode - distance * l_hat, axis=1))) if len(herpolhode) else 0.0
+        plane = Plane(distance * l_hat, l_hat, max(1.2 * extent, 0.3 * reach))
+    return Geometry(label, axis, tips, scene.field_direction, herpolhode, polhode, plane)
+
+
+def decimate(path: np.ndarray) -> np.ndarray:
+    return path[:: max(1, len(path) // MAX_PATH_POINTS)]
