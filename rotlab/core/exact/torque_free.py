@@ -36,9 +36,10 @@ is constant.  The polar axis is the cn axis, so sin θ ≥ J2 γ / |L| > 0 and c
     c = |L| (J2 − J3) / (J2 J3 λ),   n = −ν = −J3 E2 / (J2 E3) ≤ 0,
 
     ψ = ψ̄ τ + p(u) − p(u0),   ψ̄ = (|L|/J3) (1 − (J2 − J3) Π(n|m) / (J2 K)),
-    p(r) = (c Π(n|m)/K) r − c Π(n; am r|m),  Π(n; am r|m) = r + (n/3) sn³ R_J(cn², dn², 1, 1 − n sn²),
+    p(r) = (c Π(n|m)/K) r − c Π(n; am r|m),  Π(n; am r|m) = r + (n/3) sn³ R_J(cn², dn², 1, 1 − n sn²)
 
-with u = 2K j + r, |r| ≤ K (p is odd, 2K-periodic, p(±K) = 0).  On the separatrix ψ̄ = |L|/J1 and
+(Carlson's form with F(am r|m) = r), where u = 2K j + r, |r| ≤ K, and Π(n; φ + jπ|m) = Π(n; φ|m) + 2jΠ(n|m)
+moves the secular part into ψ̄ τ (p is odd, 2K-periodic, p(±K) = 0).  On the separatrix ψ̄ = |L|/J1 and
 p(u) = −c √ν atan(√ν tanh u) / (1 + ν).
 
 Precision: the invariants are exact rationals (fractions.Fraction); λ, K, Π(n|m), ψ̄, |L| come from
@@ -47,12 +48,13 @@ are formed in double-double and reduced modulo 2K and 4π, so that the error doe
 beyond a few ulp of the reduced phase.  sn, cn, dn come from scipy.special.ellipj for m1 ≥ 0.5 and
 otherwise from the sech/tanh lattice sums (nome q1 = e^(−πK/K')), which keep full relative accuracy
 of cn and dn near u = ±K for m arbitrarily close to 1.  Nearly equal moments need no special form:
-every difference of moments is exact.  Limitation: 0 < m1 ≲ 1e-300 (ω0 within ~1e-150 of the middle
-axis but not on it) underflows.
+every difference of moments is exact.  For extreme 0 < m1 the O(K) terms of p(r) cost some digits
+(measured: |ΔΛ| 4e-12 at m1 = 2e-200 over 1000 periods; ≤ 1e-13 for m1 ≥ 1e-16).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from decimal import Decimal, localcontext
 from fractions import Fraction
@@ -68,7 +70,10 @@ _DIGITS = 60
 _PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944592307816")
 _SERIES_BELOW_M1 = 0.5  # sn, cn, dn from the hyperbolic lattice sums when m1 < this (else ellipj)
 
-DD = tuple[float, float]  # double-double number hi + lo
+_CHUNK = 1 << 15  # samples per vectorised block
+
+DD = tuple[float, float]  # double-double number hi + lo (floats or arrays)
+Evaluator = Callable[[DD], tuple[np.ndarray, np.ndarray]]  # τ = t − t0 ↦ (q (n, 4), ω (n, 3))
 
 
 # ---------------------------------------------------------------- double-double arithmetic
@@ -98,6 +103,15 @@ def _dd(x: Decimal) -> DD:
     return hi, float(x - Decimal(hi))
 
 
+def _decimal_context():
+    """60-digit context for the scalar per-call constants; _cel and _rf assume it is active."""
+    return localcontext(prec=_DIGITS)
+
+
+with _decimal_context():
+    _FOUR_PI = _dd(4 * _PI)
+
+
 def _reduce(rate: DD, tau: DD, offset: float, period: DD | None):
     """x = rate · τ + offset in double-double, split as x = j · period + r with |r| ≤ period/2.
 
@@ -113,7 +127,7 @@ def _reduce(rate: DD, tau: DD, offset: float, period: DD | None):
     return j, (hi - q) + (lo - f - j * period[1])
 
 
-# ---------------------------------------------------------------- 60-digit scalar special functions
+# ---------------------------------------------------------------- 60-digit scalar special functions (decimal)
 def _dec(x: Fraction) -> Decimal:
     return Decimal(x.numerator) / Decimal(x.denominator)
 
@@ -155,11 +169,6 @@ def _rf(x: Decimal, y: Decimal, z: Decimal) -> Decimal:
         x, y, z = (x + lam) / 4, (y + lam) / 4, (z + lam) / 4
 
 
-with localcontext() as _ctx:
-    _ctx.prec = _DIGITS
-    _FOUR_PI = _dd(4 * _PI)
-
-
 # ---------------------------------------------------------------- quaternion pieces
 def _axis_quaternion(axis: int, angle: np.ndarray) -> np.ndarray:
     """Λ_k(angle) = (cos(angle/2), sin(angle/2) e_k), shape (N, 4)."""
@@ -192,36 +201,36 @@ def _spin_about_z(psi: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.stack([c * q0 - s * q3, c * q1 - s * q2, c * q2 + s * q1, c * q3 + s * q0], axis=-1)
 
 
-def _sandwich(a: np.ndarray, q: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a ∘ q ∘ b for constant a, b as one 4×4 matrix product over the samples."""
-    matrix = multiply_array(multiply_array(a, np.eye(4)), b)  # row i = a ∘ e_i ∘ b
-    return q @ matrix
+def _sandwich_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """4×4 M with q @ M = a ∘ q ∘ b for constant a, b (row i = a ∘ e_i ∘ b)."""
+    return multiply_array(multiply_array(a, np.eye(4)), b)
 
 
 # ---------------------------------------------------------------- fixed axis / axisymmetric
-def _axisymmetric(inertia, omega0, q0, tau, k: int, a_perp: float, c_axis: float):
+def _axisymmetric(inertia, omega0, q0, k: int, a_perp: float, c_axis: float) -> Evaluator:
     """ω = R_k(Ωτ) ω0,  Λ = Λ_n(|L|τ/A) ∘ Λ0 ∘ Λ_k(−Ωτ),  Ω = (C − A) ω0_k / A."""
     w = [Fraction(x) for x in omega0]
     big_l2 = sum(Fraction(i) ** 2 * x * x for i, x in zip(inertia, w))
-    with localcontext() as ctx:
-        ctx.prec = _DIGITS
+    with _decimal_context():
         rate_body = _dd(_dec((Fraction(c_axis) - Fraction(a_perp)) * w[k] / Fraction(a_perp)))
         rate_space = _dd(_dec(big_l2).sqrt() / _dec(Fraction(a_perp)))
-    phi_b = _reduce(rate_body, tau, 0.0, _FOUR_PI)[1]
-    phi_s = _reduce(rate_space, tau, 0.0, _FOUR_PI)[1]
-
-    i, j = (k + 1) % 3, (k + 2) % 3
-    c, s = np.cos(phi_b), np.sin(phi_b)
-    omega = np.empty(tau[0].shape + (3,))
-    omega[:, k] = omega0[k]
-    omega[:, i] = c * omega0[i] - s * omega0[j]
-    omega[:, j] = s * omega0[i] + c * omega0[j]
-
     l_space = rotate_to_space_array(q0, inertia * omega0)
     norm = np.linalg.norm(l_space)
     n = l_space / norm if norm > 0.0 else np.array([0.0, 0.0, 1.0])
-    rot_space = np.concatenate([np.cos(0.5 * phi_s)[:, None], np.sin(0.5 * phi_s)[:, None] * n], axis=-1)
-    return multiply_array(rot_space, _sandwich(q0, _axis_quaternion(k, -phi_b), np.array([1.0, 0, 0, 0]))), omega
+    i, j = (k + 1) % 3, (k + 2) % 3
+
+    def evaluate(tau: DD):
+        phi_b = _reduce(rate_body, tau, 0.0, _FOUR_PI)[1]
+        phi_s = _reduce(rate_space, tau, 0.0, _FOUR_PI)[1]
+        c, s = np.cos(phi_b), np.sin(phi_b)
+        omega = np.empty(phi_b.shape + (3,))
+        omega[:, k] = omega0[k]
+        omega[:, i] = c * omega0[i] - s * omega0[j]
+        omega[:, j] = s * omega0[i] + c * omega0[j]
+        rot_space = np.concatenate([np.cos(0.5 * phi_s)[:, None], np.sin(0.5 * phi_s)[:, None] * n], axis=-1)
+        return multiply_array(rot_space, multiply_array(q0, _axis_quaternion(k, -phi_b))), omega
+
+    return evaluate
 
 
 # ---------------------------------------------------------------- asymmetric body
@@ -238,9 +247,11 @@ class _Elliptic:
     k_big: float  # K (inf on the separatrix)
     k_comp: float  # K' = K(m1)
     nu: float
-    psi_rate: DD
-    p_lin: float  # c Π(n|m)/K − c          (separatrix: c √ν / (1 + ν))
-    p_rj: float  # c ν / 3                  (separatrix: √ν)
+    psi_rate: DD  # ψ̄
+    # periodic part of ψ:  p(r) = p_a r + p_b sn³ R_J(cn², dn², 1, 1 + ν sn²),
+    # on the separatrix    p(u) = −p_a atan(p_b tanh u)
+    p_a: float  # c Π(n|m)/K − c   (separatrix: c √ν / (1 + ν))
+    p_b: float  # c ν / 3          (separatrix: √ν)
 
 
 def _jacobi_lattice(r, k_big: float, k_comp: float, m1: float):
@@ -251,7 +262,8 @@ def _jacobi_lattice(r, k_big: float, k_comp: float, m1: float):
     the tanh sum taken symmetrically in ±n.  For |r| ≤ K, e^{−|x_{±n}|} ≤ q1^{n − 1/2}; exact at K = ∞."""
     shift = np.pi / (2.0 * k_comp)
     x0 = shift * r
-    sn, dn = np.tanh(x0), 1.0 / np.cosh(x0)
+    e0 = np.exp(-np.abs(x0))
+    sn, dn = np.tanh(x0), 2.0 * e0 / (1.0 + e0 * e0)  # sech without overflow
     cn = dn.copy()
     if np.isfinite(k_big):
         step = 2.0 * shift * k_big  # −ln q1
@@ -284,11 +296,10 @@ def _elliptic_constants(inertia_g: np.ndarray, omega_g: np.ndarray) -> _Elliptic
     big_l2 = j1 * j1 * w1 * w1 + j2 * j2 * w2 * w2 + j3 * j3 * w3 * w3
     m1 = (j2 - j3) * e1 / ((j2 - j1) * e3)
     nu = j3 * e2 / (j2 * e3)
-    with localcontext() as ctx:
-        ctx.prec = _DIGITS
+    with _decimal_context():
         big_l = _dec(big_l2).sqrt()
         lam = _dec((j2 - j1) * e3 / (j1 * j2 * j3)).sqrt() * (1 if j2 > j1 else -1)
-        amp = [_dec(e2 / (j1 * (j2 - j1))).sqrt(), _dec(e3 / (j2 * (j2 - j3))).sqrt(), _dec(e2 / (j3 * (j2 - j3))).sqrt()]
+        amp = [_dec(x).sqrt() for x in (e2 / (j1 * (j2 - j1)), e3 / (j2 * (j2 - j3)), e2 / (j3 * (j2 - j3)))]  # β, γ, α
         cn0_sq, dn0_sq = _dec(j3 * (j2 - j3) * w3 * w3 / e2), _dec(j2 * (j2 - j3) * w2 * w2 / e3)
         sn0 = _dec(j1 * (j2 - j1) * w1 * w1 / e2).sqrt() * (1 if w1 >= 0 else -1)
         u0 = sn0 * _rf(cn0_sq, dn0_sq, Decimal(1)) if sn0 != 0 else Decimal(0)
@@ -297,13 +308,13 @@ def _elliptic_constants(inertia_g: np.ndarray, omega_g: np.ndarray) -> _Elliptic
         if m1 == 0:
             k_big, half_period = Decimal("Infinity"), None
             psi_rate = big_l / _dec(j1)
-            p_lin, p_rj = c * sqrt_nu / (1 + _dec(nu)), sqrt_nu
+            p_a, p_b = c * sqrt_nu / (1 + _dec(nu)), sqrt_nu
         else:
             kc = _dec(m1).sqrt()
             k_big, pi_c = _cel(kc, Decimal(1)), _cel(kc, 1 + _dec(nu))
             half_period = _dd(2 * k_big)
             psi_rate = big_l / _dec(j3) * (1 - _dec(j2 - j3) * pi_c / (_dec(j2) * k_big))
-            p_lin, p_rj = c * (pi_c / k_big - 1), c * _dec(nu) / 3
+            p_a, p_b = c * (pi_c / k_big - 1), c * _dec(nu) / 3
         return _Elliptic(
             amp=np.array([float(x) for x in amp]),
             lam=_dd(lam),
@@ -315,8 +326,8 @@ def _elliptic_constants(inertia_g: np.ndarray, omega_g: np.ndarray) -> _Elliptic
             k_comp=float(special.ellipk(float(m1))),
             nu=float(nu),
             psi_rate=_dd(psi_rate),
-            p_lin=float(p_lin),
-            p_rj=float(p_rj),
+            p_a=float(p_a),
+            p_b=float(p_b),
         )
 
 
@@ -326,12 +337,16 @@ def _elliptic_state(ell: _Elliptic, j: np.ndarray, r: np.ndarray):
         sn, cn, dn, _ = special.ellipj(r, ell.m)
     else:
         sn, cn, dn = _jacobi_lattice(r, ell.k_big, ell.k_comp, ell.m1)
-    sign = 1.0 - 2.0 * np.remainder(j, 2.0)  # sn, cn change sign every 2K
+    sign = 1.0 - 2.0 * (j - 2.0 * np.floor(0.5 * j))  # (−1)^j: sn, cn change sign every 2K
     omega = np.stack([sign * sn, dn, sign * cn], axis=-1) * ell.amp
     if ell.half_period is None:
-        p = -ell.p_lin * np.arctan(ell.p_rj * sn)
+        p = -ell.p_a * np.arctan(ell.p_b * sn)
     else:
-        p = ell.p_lin * r + ell.p_rj * sn**3 * special.elliprj(cn * cn, dn * dn, 1.0, 1.0 + ell.nu * sn * sn)
+        cn2, dn2 = cn * cn, dn * dn
+        p = ell.p_a * r + ell.p_b * (sn * sn * sn) * special.elliprj(cn2, dn2, 1.0, 1.0 + ell.nu * sn * sn)
+        if ell.m1 < 1e-200:  # cn², dn² may underflow near ±K, where p is linear: p(±K) = 0, p' = p_a + 3 p_b/(1 + ν)
+            slope = ell.p_a + 3.0 * ell.p_b / (1.0 + ell.nu)
+            p = np.where(cn2 + dn2 < 1e-200, slope * (r - np.copysign(ell.k_big, r)), p)
     return omega, p
 
 
@@ -353,20 +368,24 @@ def _frame_permutation(inertia: np.ndarray, omega0: np.ndarray) -> tuple[np.ndar
     return perm, np.array(idx)
 
 
-def _asymmetric(inertia, omega0, q0, tau):
+def _asymmetric(inertia, omega0, q0) -> Evaluator:
+    """Λ = Λ_S ∘ Λ_z(ψ) ∘ Λ_Q ∘ Λ_P and ω = Pᵀ ω_G, with Λ_S fixed by Λ(t0) = Λ0 (ψ(t0) = 0)."""
     perm, idx = _frame_permutation(inertia, omega0)
-    inertia_g, omega_g0 = inertia[idx], perm @ omega0
-    ell = _elliptic_constants(inertia_g, omega_g0)
-
-    j, r = _reduce(ell.lam, tau, ell.u0, ell.half_period)
-    omega_g, p = _elliptic_state(ell, j, r)
+    inertia_g = inertia[idx]
+    ell = _elliptic_constants(inertia_g, perm @ omega0)
     omega_i, p0 = _elliptic_state(ell, np.zeros(1), np.array([ell.u0]))
-    psi = _reduce(ell.psi_rate, tau, 0.0, _FOUR_PI)[1] + (p - p0[0])
-
     q_perm = from_matrix(perm)
-    q_space = multiply_array(multiply_array(q0, conjugate_array(q_perm)), conjugate_array(_lframe_quaternion(inertia_g * omega_i)))
-    q_body = _spin_about_z(psi, _lframe_quaternion(inertia_g * omega_g))
-    return _sandwich(q_space[0], q_body, q_perm), omega_g @ perm
+    q_lframe0 = _lframe_quaternion(inertia_g * omega_i)[0]
+    q_space = multiply_array(multiply_array(q0, conjugate_array(q_perm)), conjugate_array(q_lframe0))  # Λ_S
+    matrix = _sandwich_matrix(q_space, q_perm)
+
+    def evaluate(tau: DD):
+        j, r = _reduce(ell.lam, tau, ell.u0, ell.half_period)
+        omega_g, p = _elliptic_state(ell, j, r)
+        psi = _reduce(ell.psi_rate, tau, 0.0, _FOUR_PI)[1] + (p - p0[0])
+        return _spin_about_z(psi, _lframe_quaternion(inertia_g * omega_g)) @ matrix, omega_g @ perm
+
+    return evaluate
 
 
 # ---------------------------------------------------------------- public API
@@ -385,19 +404,24 @@ def torque_free_solution(moments, omega0, q0, t0, t) -> tuple[np.ndarray, np.nda
         raise ValueError("moments must be finite and positive")
     if not (np.all(np.isfinite(omega0)) and np.all(np.isfinite(q0)) and np.linalg.norm(q0) > 0.0):
         raise ValueError("omega0 and q0 must be finite, q0 non-zero")
+    if not np.all(np.isfinite(t)):
+        raise ValueError("sample times must be finite")
     q0 = q0 / np.linalg.norm(q0)
-    tau = _two_sum(t.ravel(), -float(t0))  # t − t0 exactly as hi + lo
 
-    nonzero = np.flatnonzero(omega0)
     distinct = np.unique(inertia)
-    if distinct.size < 3:  # axisymmetric or spherical: k is the odd axis
-        counts = [np.count_nonzero(inertia == x) for x in inertia]
-        k = int(np.argmin(counts)) if distinct.size == 2 else 2
-        a_perp = float(inertia[(k + 1) % 3])
-        q, omega = _axisymmetric(inertia, omega0, q0, tau, k, a_perp, float(inertia[k]))
-    elif nonzero.size <= 1:  # at rest or permanent rotation about a principal axis
+    nonzero = np.flatnonzero(omega0)
+    if distinct.size < 3:  # axisymmetric (k = the odd axis) or spherical
+        k = int(np.argmin([np.count_nonzero(inertia == x) for x in inertia])) if distinct.size == 2 else 2
+        evaluate = _axisymmetric(inertia, omega0, q0, k, float(inertia[(k + 1) % 3]), float(inertia[k]))
+    elif nonzero.size <= 1:  # at rest or permanent rotation about a principal axis: A = C, Ω = 0
         k = int(nonzero[0]) if nonzero.size else 2
-        q, omega = _axisymmetric(inertia, omega0, q0, tau, k, float(inertia[k]), float(inertia[k]))
+        evaluate = _axisymmetric(inertia, omega0, q0, k, float(inertia[k]), float(inertia[k]))
     else:
-        q, omega = _asymmetric(inertia, omega0, q0, tau)
+        evaluate = _asymmetric(inertia, omega0, q0)
+
+    tau_hi, tau_lo = _two_sum(t.ravel(), -float(t0))  # t − t0 exactly
+    q, omega = np.empty((t.size, 4)), np.empty((t.size, 3))
+    for start in range(0, t.size, _CHUNK):  # chunks keep the temporaries in cache
+        part = slice(start, start + _CHUNK)
+        q[part], omega[part] = evaluate((tau_hi[part], tau_lo[part]))
     return q.reshape(t.shape + (4,)), omega.reshape(t.shape + (3,))
