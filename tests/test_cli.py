@@ -24,7 +24,7 @@ def test_run_writes_default_output_in_working_directory(cli, tmp_path):
     assert result.exit_code == 0, result.output
     assert (tmp_path / "euler.rrd").exists()
     out = result.stdout
-    assert "torque-free" in out and "dop853" in out and "L_space" in out and "euler.rrd" in out
+    assert "torque-free" in out and "exact" in out and "L_space" in out and "euler.rrd" in out
 
 
 def test_run_overrides_method_and_duration(cli, tmp_path):

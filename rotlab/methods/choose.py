@@ -1,4 +1,9 @@
-"""Which method runs a scene: the user's choice (checked), or ``auto`` with its reason."""
+"""Which method runs a scene: the user's choice (checked), or ``auto`` with its reason.
+
+``auto`` takes the cheapest method that is exact or meets the tolerance for the scene:
+  exact solution (torque-free body, Lagrange top)  →  no stepping at all;
+  otherwise adaptive DOP853 with dense output.
+"""
 
 from __future__ import annotations
 
@@ -18,4 +23,8 @@ def choose_method(scene: Scene, requested: str) -> tuple[Method, str]:
         if why_not:
             raise InputError("solver.method", f"'{requested}' cannot run this scene: {why_not}; use method = \"auto\"")
         return method, "requested in the scenario or on the command line"
-    return get_method("dop853"), "auto: the adaptive general-purpose method (no exact or geometric method for this scene yet)"
+    kind = scene.kind.replace("_", "-")
+    exact = get_method("exact")
+    if exact.unsupported(scene) is None:
+        return exact, f"auto: {kind} scene has an exact solution, evaluated at the samples without stepping"
+    return get_method("dop853"), f"auto: {kind} scene ({scene.kind_reason}): adaptive DOP853 meets the tolerance"
