@@ -13,6 +13,9 @@ from rotlab.methods.base import Method
 METHOD_MODULES: dict[str, str] = {
     "rk4": "rotlab.methods.rk4",
     "dop853": "rotlab.methods.dop853",
+    "splitting": "rotlab.methods.splitting",
+    "dmv": "rotlab.methods.dmv",
+    "rkmk4": "rotlab.methods.rkmk4",
     "exact": "rotlab.methods.exact",
 }
 
