@@ -42,10 +42,10 @@ def simulate(scenario: Scenario | str | Path, *, method: str | None = None, prog
 
 def run_scene(scene: Scene, progress: ProgressCallback | None = None) -> Trajectory:
     scenario = scene.scenario
-    chosen, reason = choose_method(scene, scenario.solver.method)
     s = scenario.solver
-    settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps, order=s.order)
     t = scenario.time.sample_times()
+    settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps, order=s.order)
+    chosen, reason, settings = choose_method(scene, s.method, settings, t)
     started = time.perf_counter()
     solution = chosen.solve(scene, t, settings, progress)
     seconds = time.perf_counter() - started

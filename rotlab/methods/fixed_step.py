@@ -3,23 +3,31 @@
     advance(y, times, out, i_start, substeps, max_steps, euler, loads, *extra) → (status, i, steps)
 
 that steps ``substeps`` equal steps per sample interval (see ``rotlab.core.rk4``).  A method
-module only names its kernel, its cost and what it cannot do.
+module only names its kernel, the orders it offers, its cost and what it cannot do.
+
+Step size: ``solver.step`` when given; otherwise the step that meets ``solver.rtol`` over the
+whole span, from a probe: the method runs over a short span with steps h₀ and h₀/2, the
+difference estimates the error e ≈ |y_{h₀} − y_{h₀/2}| / (2^p − 1) of the finer run, and with
+error ∝ h^p · (elapsed time) the step for the run is
+    h = (h₀/2) · (rtol / (e · span / probe span))^(1/p).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
 from rotlab.core.dynamics import euler_coefficients
+from rotlab.errors import InputError
 from rotlab.methods.base import ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import initial_state, nonfinite_message, run_chunks
 from rotlab.scene.scene import Scene
 
-DEFAULT_STEPS_PER_RADIAN = 100  # default step: 0.01 / (characteristic rate)
+PROBE_RADIANS = 20.0  # probe span: about 20 rad of the scene's characteristic rotation
+PROBE_STEPS = 40  # coarse steps in the probe
 
 
 @dataclass(frozen=True)
@@ -27,35 +35,72 @@ class FixedStepMethod:
     name: str
     summary: str
     kernel: Callable
-    evaluations_per_step: int
+    order_of_accuracy: int  # p when the method has one order (else see ``orders``)
+    evaluations_per_step: Callable[[Scene, int], int]  # force / right-hand-side evaluations per step
     requires: Callable[[Scene], str | None] = lambda scene: None  # why the scene is out of reach
-    extra_args: Callable[[Scene, Settings], tuple] = lambda scene, settings: ()
+    extra_args: Callable[[Scene, int], tuple] = lambda scene, order: ()
+    orders: tuple[int, ...] = ()  # orders offered through ``solver.order`` (empty: just one)
+    default_order: int | None = None
+    probe_cache: dict = field(default_factory=dict, compare=False, repr=False)
 
     def unsupported(self, scene: Scene) -> str | None:
         return self.requires(scene)
 
-    def step(self, scene: Scene, t: np.ndarray, settings: Settings) -> float:
-        """``solver.step``, or min(sample interval, 0.01 / rate) from the scene's rate scale."""
-        interval = float(t[1] - t[0])
+    def order(self, settings: Settings) -> int:
+        if not self.orders:
+            return self.order_of_accuracy
+        order = self.default_order if settings.order is None else settings.order
+        if order not in self.orders:
+            raise InputError("solver.order", f"{self.name} offers orders {', '.join(map(str, self.orders))} (got {order})")
+        return int(order)
+
+    def step(self, scene: Scene, t: np.ndarray, settings: Settings, order: int) -> float:
+        """``solver.step``, or the step that meets ``solver.rtol`` (see the module docstring)."""
         if settings.step is not None:
             return settings.step
-        rate = scene.rate_scale
-        return interval if rate == 0.0 else min(interval, 1.0 / (DEFAULT_STEPS_PER_RADIAN * rate))
+        return self.step_for_tolerance(scene, t, settings.rtol, order)
+
+    def step_for_tolerance(self, scene: Scene, t: np.ndarray, rtol: float, order: int) -> float:
+        span = float(t[-1] - t[0])
+        rate = scene.rate_scale or 1.0 / span
+        probe_span = min(span, PROBE_RADIANS / rate)
+        h0 = probe_span / PROBE_STEPS
+        coarse, fine = (self._probe(scene, t[0], probe_span, n, order) for n in (PROBE_STEPS, 2 * PROBE_STEPS))
+        omega_scale = max(float(np.max(np.abs(fine[4:7]))), float(np.linalg.norm(scene.omega0)), rate * float(np.min(scene.moments)) / float(np.max(scene.moments)))
+        difference = max(float(np.max(np.abs(coarse[0:4] - fine[0:4]))), float(np.max(np.abs(coarse[4:7] - fine[4:7]))) / omega_scale)
+        error = difference / (2.0**order - 1.0)
+        if not np.isfinite(error):
+            return h0 / 8.0
+        if error == 0.0:  # exact for this scene at the probe's resolution
+            return h0
+        h = 0.5 * h0 * (rtol / (error * span / probe_span)) ** (1.0 / order)
+        return float(min(h, h0))
+
+    def _probe(self, scene: Scene, t0: float, span: float, steps: int, order: int) -> np.ndarray:
+        times = np.array([t0, t0 + span])
+        out = np.empty((2, 8))
+        y = initial_state(scene.q0, scene.omega0)
+        self.kernel(y, times, out, 1, steps, steps, euler_coefficients(scene.moments), scene.loads.for_kernel(),
+                    *self.extra_args(scene, order))
+        return y
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+        order = self.order(settings)
         interval = float(t[1] - t[0])
-        substeps = max(1, math.ceil(interval / self.step(scene, t, settings) - 1e-9))
+        h = self.step(scene, t, settings, order)
+        substeps = max(1, math.ceil(interval / h - 1e-9))
         out = np.empty((t.shape[0], 8))
         y = initial_state(scene.q0, scene.omega0)
         out[0] = y
         euler = euler_coefficients(scene.moments)
         loads = scene.loads.for_kernel()
-        extra = self.extra_args(scene, settings)
+        extra = self.extra_args(scene, order)
 
         def advance(i: int, budget: int) -> tuple[int, int, int]:
             return self.kernel(y, t, out, i, substeps, max(budget, substeps), euler, loads, *extra)
 
         solution = run_chunks(t, out, advance, settings.max_steps, progress, lambda status, i: nonfinite_message(t, i, out))
-        solution.rhs_evaluations = self.evaluations_per_step * solution.steps
-        solution.details = {"step": interval / substeps, "steps per sample": substeps}
+        solution.rhs_evaluations = self.evaluations_per_step(scene, order) * solution.steps
+        solution.details = {"step": interval / substeps, "steps per sample": substeps, "order": order,
+                            "step from": "solver.step" if settings.step is not None else f"rtol = {settings.rtol:g}"}
         return solution

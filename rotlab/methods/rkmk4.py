@@ -9,5 +9,6 @@ METHOD = FixedStepMethod(
     name="rkmk4",
     summary="Runge–Kutta–Munthe-Kaas 4 (Lie-group RK4, exponential map), fixed step",
     kernel=rkmk4_advance,
-    evaluations_per_step=4,
+    order_of_accuracy=4,
+    evaluations_per_step=lambda scene, order: 4,
 )

@@ -9,23 +9,9 @@ See ``rotlab.core.splitting`` for the scheme and the composition coefficients.
 
 from __future__ import annotations
 
-import numpy as np
-
 from rotlab.core.splitting import ORDERS, splitting_advance, stages
-from rotlab.errors import InputError
-from rotlab.methods.base import ProgressCallback, Settings, Solution
 from rotlab.methods.fixed_step import FixedStepMethod
 from rotlab.scene.scene import Scene
-
-DEFAULT_ORDER = 4
-
-
-def chosen_order(settings: Settings) -> int:
-    order = getattr(settings, "order", None)
-    order = DEFAULT_ORDER if order is None else order
-    if order not in ORDERS:
-        raise InputError("solver.order", f"splitting offers orders {', '.join(map(str, ORDERS))} (got {order})")
-    return int(order)
 
 
 def _requires(scene: Scene) -> str | None:
@@ -37,21 +23,15 @@ def _requires(scene: Scene) -> str | None:
     return None
 
 
-class SplittingMethod(FixedStepMethod):
-    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
-        order = chosen_order(settings)
-        solution = super().solve(scene, t, settings, progress)
-        kicks = len(scene.loads.forces) > 0  # force evaluations: one per stage (kicks merged)
-        solution.rhs_evaluations = stages(order) * solution.steps if kicks else 0
-        solution.details["order"] = order
-        return solution
-
-
-METHOD = SplittingMethod(
+METHOD = FixedStepMethod(
     name="splitting",
     summary="symplectic splitting (axis rotations + kicks), composed to order 2/4/6/8, fixed step",
     kernel=splitting_advance,
-    evaluations_per_step=1,  # per stage; see SplittingMethod.solve
+    order_of_accuracy=4,
+    orders=ORDERS,
+    default_order=4,
+    # force evaluations: one per stage (kicks merged), none for the free body
+    evaluations_per_step=lambda scene, order: stages(order) if len(scene.loads.forces) else 0,
     requires=_requires,
-    extra_args=lambda scene, settings: (chosen_order(settings),),
+    extra_args=lambda scene, order: (order,),
 )
