@@ -65,7 +65,7 @@ def main() -> None:
     def dop_run():
         y = initial_state(scene.q0, scene.omega0)
         counters[:] = 0
-        dop853.dop853_advance(y, 0.0, 0.0, t, out, 1, 10.0, 1e-10, 1e-12, 10**9, euler, loads, counters)
+        dop853.dop853_advance(y, 0.0, 0.0, t, out, 1, 10.0, 1e-10, 1e-12, 10**9, euler, loads, counters, np.zeros(0))
 
     started = time.perf_counter()
     dop_run()

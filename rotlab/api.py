@@ -57,6 +57,7 @@ def run_scene(scene: Scene, progress: ProgressCallback | None = None) -> Traject
         rhs_evaluations=solution.rhs_evaluations,
         seconds=seconds,
         failure=solution.failure,
+        interrupted=solution.interrupted,
         details=solution.details,
     )
     return build_trajectory(scene, solution, stats, euler_angles=scenario.output.euler_angles)

@@ -62,9 +62,9 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     import time
 
     from rotlab import api
-    from rotlab.errors import InputError, RunFailure
+    from rotlab.errors import InputError, Interrupted, RunFailure
     from rotlab.progress import ProgressBar
-    from rotlab.recording.writer import check_output_path, write_recording
+    from rotlab.recording.writer import check_output_path, partial_path, write_recording
     from rotlab.scene.scene import build_scene
     from rotlab.summary import summary_lines
 
@@ -81,12 +81,15 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     finally:
         if bar is not None:
             bar.close()
+    if traj.stats.failure:  # an incomplete run never replaces a complete recording
+        target = partial_path(target)
     write_recording(traj, target)
     if not quiet:
         for line in summary_lines(traj, config, target, time.perf_counter() - started):
             typer.echo(line)
     if traj.stats.failure:
-        raise RunFailure(f"{config}: run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid samples are in {target}")
+        stopped = Interrupted if traj.stats.interrupted else RunFailure
+        raise stopped(f"{config}: run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid samples are in {target}")
 
 
 @app.command()

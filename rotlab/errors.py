@@ -25,3 +25,9 @@ class RunFailure(Exception):
     """A run stopped (non-finite state, step budget exhausted): the valid samples are kept."""
 
     exit_code = 1
+
+
+class Interrupted(RunFailure):
+    """The user stopped the run (Ctrl-C); what was computed is kept."""
+
+    exit_code = 130

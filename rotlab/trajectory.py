@@ -32,6 +32,7 @@ class RunStats:
     rhs_evaluations: int
     seconds: float
     failure: str | None = None
+    interrupted: bool = False
     details: dict[str, object] = field(default_factory=dict)
 
 

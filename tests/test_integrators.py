@@ -103,14 +103,42 @@ def test_blow_up_stops_with_a_message_and_keeps_valid_samples(cli, write, tmp_pa
         "boom.toml",
         "[body]\nprincipal_moments = [1, 1, 1]\n[initial]\nomega = [0, 0, 1]\n"
         '[[loads]]\ntype = "torque_table"\nframe = "body"\ntimes = [0.5, 0.6]\nvalues = [[1e308, 1e308, 0], [1e308, 1e308, 0]]\n'
-        "[time]\nend = 1.0\nsample_rate = 100\n[solver]\nmethod = \"rk4\"\nstep = 0.01\n",
+        "[time]\nend = 1.0\nsample_rate = 100\n[solver]\nmethod = \"dop853\"\n",
     )
     result = cli("run", str(path), "-o", "boom.rrd")
     assert result.exit_code == 1
     message = result.stderr.strip().splitlines()
-    assert len(message) == 1 and "non-finite" in message[0] and "t = 0.5" in message[0]
+    assert len(message) == 1 and "t = 0.5" in message[0]
+    assert "non-finite" in message[0] or "step size fell below" in message[0]
     from rotlab.recording import layout
     from rotlab.recording.reader import read_series
 
-    t, w = read_series(tmp_path / "boom.rrd", layout.OMEGA)
+    assert "boom.partial.rrd" in message[0] and not (tmp_path / "boom.rrd").exists()
+    t, w = read_series(tmp_path / "boom.partial.rrd", layout.OMEGA)
     assert t[-1] == pytest.approx(0.5) and np.all(np.isfinite(w))
+
+
+def test_adaptive_steps_never_jump_over_a_short_pulse():
+    """A 0.01 s torque pulse in a 10 s quiet run: its impulse M·Δt = 0.02 N·m·s must land in
+    full (steps end at the window edges), to 1e-12."""
+    sc = scenario(
+        body={"principal_moments": [1.0, 1.0, 1.0]},
+        loads=[{"type": "torque", "frame": "body", "value": [0.0, 0.0, 2.0], "window": {"on": 6.123, "off": 6.133}}],
+        time={"end": 10.0, "samples": 3},
+        solver={"method": "dop853"},
+    )
+    traj = rotlab.simulate(sc)
+    assert traj.omega[-1, 2] == pytest.approx(0.02, abs=1e-12)
+
+
+def test_fixed_step_longer_than_a_pulse_is_refused():
+    from rotlab.errors import InputError
+
+    sc = scenario(
+        body={"principal_moments": [1.0, 1.0, 1.0]},
+        loads=[{"type": "torque", "frame": "body", "value": [0.0, 0.0, 2.0], "window": {"on": 6.0, "off": 6.01}}],
+        time={"end": 10.0, "samples": 11},
+        solver={"method": "rk4", "step": 0.1},
+    )
+    with pytest.raises(InputError, match="acts for only 0.01 s"):
+        rotlab.simulate(sc)

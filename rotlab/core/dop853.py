@@ -59,9 +59,11 @@ def initial_step(t, y, f0, t_end, rtol, atol, euler, loads):
 
 
 @njit(cache=True)
-def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, euler, loads, counters):
+def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, euler, loads, counters, breaks):
     """Advance from (t, y) with trial step h (≤ 0: choose one), writing ``out[i]`` for every
     sample i ≥ i_start passed, until all samples are written or ``max_steps`` steps were taken.
+    Steps end at every time in ``breaks`` (sorted): a load that switches or kinks there is never
+    stepped over.
 
     ``y`` is updated in place; ``counters`` (int64[3]) accumulates [accepted, rejected, f evals].
     Returns (status, next sample index, t, next trial step).
@@ -80,27 +82,36 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
     i = i_start
     steps = 0
     rejected = False
+    b = np.searchsorted(breaks, t, side="right")  # next breakpoint after t
     while i < times.shape[0] and steps < max_steps:
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
         if h < min_step:
             return STEP_TOO_SMALL, i, t, h
         t_new = t + h
-        if t_new > t_end:
-            t_new = t_end
+        limit = t_end
+        while b < breaks.shape[0] and breaks[b] <= t:
+            b += 1
+        if b < breaks.shape[0] and breaks[b] < limit:
+            limit = breaks[b]
+        if t_new > limit:
+            t_new = limit
         h = t_new - t
+        # a step ending on a breakpoint sees the loads' left limit: its stages stop just before it
+        at_break = t_new == limit and limit != t_end
+        t_last = np.nextafter(t_new, -np.inf) if at_break else t_new
         for s in range(1, _STAGES):
             for m in range(n):
                 acc = 0.0
                 for j in range(s):
                     acc += _A[s, j] * K[j, m]
                 tmp[m] = y[m] + h * acc
-            rhs(t + _C[s] * h, tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
+            rhs(min(t + _C[s] * h, t_last), tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
         for m in range(n):
             acc = 0.0
             for j in range(_STAGES):
                 acc += _B[j] * K[j, m]
             y_new[m] = y[m] + h * acc
-        rhs(t_new, y_new, K[_STAGES], euler, forces, terms, tables, table_t, table_v, damping)
+        rhs(t_last, y_new, K[_STAGES], euler, forces, terms, tables, table_t, table_v, damping)
         counters[2] += _STAGES
         e5 = 0.0
         e3 = 0.0
@@ -125,7 +136,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
             steps += 1
             counters[0] += 1
             if times[i] <= t_new:
-                _dense_coefficients(t, h, y, y_new, K, F, tmp, euler, loads)
+                _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, euler, loads)
                 counters[2] += 3
                 while i < times.shape[0] and times[i] <= t_new:
                     if times[i] == t_new:
@@ -137,6 +148,9 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
                 y[m] = y_new[m]
                 K[0, m] = K[_STAGES, m]
             t = t_new
+            if at_break:  # the next step starts from the right limit of the loads
+                rhs(t, y, K[0], euler, forces, terms, tables, table_t, table_v, damping)
+                counters[2] += 1
             if not all_finite(y):
                 return NONFINITE, i, t, h
             if err == 0.0:
@@ -155,8 +169,9 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
 
 
 @njit(cache=True)
-def _dense_coefficients(t, h, y, y_new, K, F, tmp, euler, loads):
-    """Stages 14–16 and the interpolant coefficients F (7 × n) of the step [t, t + h]."""
+def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, euler, loads):
+    """Stages 14–16 and the interpolant coefficients F (7 × n) of the step [t, t + h]
+    (stage times capped at ``t_last``, the left limit at a breakpoint)."""
     forces, terms, tables, table_t, table_v, damping = loads
     n = y.shape[0]
     for s in range(_STAGES + 1, 16):
@@ -165,7 +180,7 @@ def _dense_coefficients(t, h, y, y_new, K, F, tmp, euler, loads):
             for j in range(s):
                 acc += _A[s, j] * K[j, m]
             tmp[m] = y[m] + h * acc
-        rhs(t + _C[s] * h, tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
+        rhs(min(t + _C[s] * h, t_last), tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
     for m in range(n):
         dy = y_new[m] - y[m]
         F[0, m] = dy

@@ -44,6 +44,7 @@ class Solution:
     rejected_steps: int = 0
     rhs_evaluations: int = 0
     failure: str | None = None
+    interrupted: bool = False  # the failure is the user's Ctrl-C
     details: dict[str, object] = field(default_factory=dict)
 
 

@@ -9,6 +9,7 @@ from rotlab.core.dynamics import euler_coefficients
 from rotlab.core import dop853 as kernel
 from rotlab.methods.base import ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import initial_state, nonfinite_message, run_chunks
+from rotlab.scene.loads import breakpoints
 from rotlab.scene.scene import Scene
 
 
@@ -26,12 +27,13 @@ class DOP853:
         euler = euler_coefficients(scene.moments)
         loads = scene.loads.for_kernel()
         counters = np.zeros(3, dtype=np.int64)
+        breaks = breakpoints(scene.loads)
         clock = {"t": float(t[0]), "h": 0.0}
 
         def advance(i: int, budget: int) -> tuple[int, int, int]:
             before = int(counters[0] + counters[1])
             status, i, clock["t"], clock["h"] = kernel.dop853_advance(
-                y, clock["t"], clock["h"], t, out, i, float(t[-1]), settings.rtol, settings.atol, budget, euler, loads, counters
+                y, clock["t"], clock["h"], t, out, i, float(t[-1]), settings.rtol, settings.atol, budget, euler, loads, counters, breaks
             )
             return status, i, int(counters[0] + counters[1]) - before
 

@@ -24,6 +24,7 @@ from rotlab.core.dynamics import euler_coefficients
 from rotlab.errors import InputError
 from rotlab.methods.base import ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import initial_state, nonfinite_message, run_chunks
+from rotlab.scene.loads import shortest_window
 from rotlab.scene.scene import Scene
 
 PROBE_RADIANS = 20.0  # probe span: about 20 rad of the scene's characteristic rotation
@@ -41,6 +42,7 @@ class FixedStepMethod:
     extra_args: Callable[[Scene, int], tuple] = lambda scene, order: ()
     orders: tuple[int, ...] = ()  # orders offered through ``solver.order`` (empty: just one)
     default_order: int | None = None
+    step_limit: float = 2.0  # largest h·ω (rad per step) that is stable / meaningful
     probe_cache: dict = field(default_factory=dict, compare=False, repr=False)
 
     def unsupported(self, scene: Scene) -> str | None:
@@ -57,8 +59,27 @@ class FixedStepMethod:
     def step(self, scene: Scene, t: np.ndarray, settings: Settings, order: int) -> float:
         """``solver.step``, or the step that meets ``solver.rtol`` (see the module docstring)."""
         if settings.step is not None:
+            rate = scene.rate_scale
+            if settings.step * rate > self.step_limit:
+                raise InputError(
+                    "solver.step",
+                    f"{settings.step:g} s is too large to be stable: h·ω = {settings.step * rate:.3g} rad exceeds "
+                    f"{self.name}'s limit {self.step_limit:g}; use step ≤ {self.step_limit / rate:.3g} s, "
+                    "or omit step to derive it from rtol",
+                )
+            self._check_windows(scene, settings.step)
             return settings.step
-        return self.step_for_tolerance(scene, t, settings.rtol, order)
+        h = self.step_for_tolerance(scene, t, settings.rtol, order)
+        return min(h, shortest_window(scene.loads) / 4.0)
+
+    def _check_windows(self, scene: Scene, step: float) -> None:
+        window = shortest_window(scene.loads)
+        if step > window / 2.0:
+            raise InputError(
+                "solver.step",
+                f"{step:g} s is too long for a load that acts for only {window:g} s (a window or table segment): "
+                f"it would be sampled too coarsely or missed; use step ≤ {window / 4.0:.3g} s or method = \"dop853\"",
+            )
 
     def step_for_tolerance(self, scene: Scene, t: np.ndarray, rtol: float, order: int) -> float:
         span = float(t[-1] - t[0])

@@ -10,5 +10,6 @@ METHOD = FixedStepMethod(
     summary="Runge–Kutta–Munthe-Kaas 4 (Lie-group RK4, exponential map), fixed step",
     kernel=rkmk4_advance,
     order_of_accuracy=4,
+    step_limit=2.8,  # its RK4 stages: stable up to h·ω = 2√2
     evaluations_per_step=lambda scene, order: 4,
 )

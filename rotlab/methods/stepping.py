@@ -37,7 +37,7 @@ def run_chunks(
     ``describe_failure(status, i)`` words a non-zero status at sample index i.
     A KeyboardInterrupt ends the run cleanly, keeping the samples written so far.
     """
-    i, steps, failure = 1, 0, None
+    i, steps, failure, interrupted = 1, 0, None, False
     try:
         while i < t.shape[0]:
             budget = min(CHUNK_STEPS, max_steps - steps)
@@ -52,8 +52,9 @@ def run_chunks(
                 failure = describe_failure(status, i)
                 break
     except KeyboardInterrupt:
-        failure = f"interrupted by the user at t = {t[i - 1]:.9g} s"
-    return Solution(t=t, state=out, valid=i if failure is None else _valid_rows(out, i), steps=steps, failure=failure)
+        failure, interrupted = f"interrupted by the user at t = {t[i - 1]:.9g} s", True
+    valid = i if failure is None else _valid_rows(out, i)
+    return Solution(t=t, state=out, valid=valid, steps=steps, failure=failure, interrupted=interrupted)
 
 
 def _valid_rows(out: np.ndarray, i: int) -> int:

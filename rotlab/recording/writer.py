@@ -37,6 +37,11 @@ def check_output_path(path: Path) -> None:
         raise InputError(where, f"directory {parent} is not writable: choose another path with -o")
 
 
+def partial_path(path: Path) -> Path:
+    """Where the valid part of an incomplete run goes: ``name.partial.rrd`` beside ``path``."""
+    return path.with_name(f"{path.stem}.partial{path.suffix or '.rrd'}")
+
+
 def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_ROWS) -> Path:
     """Write ``traj`` to ``path`` atomically; returns the path."""
     path = Path(path)

@@ -107,6 +107,24 @@ def _term(frame: float, window: tuple[float, float], offset: np.ndarray, amplitu
     return np.array([frame, window[0], window[1], *offset, *amplitude, w, phase], dtype=float)
 
 
+def breakpoints(loads: LoadArrays) -> np.ndarray:
+    """Sorted times where a load switches or kinks (window edges, table knots): an adaptive
+    method ends its steps there instead of stepping over a short pulse."""
+    times = [loads.terms[:, 1:3].ravel(), loads.tables[:, 1:3].ravel(), loads.table_t]
+    all_times = np.concatenate(times) if any(len(x) for x in times) else np.zeros(0)
+    return np.unique(all_times[np.isfinite(all_times)])
+
+
+def shortest_window(loads: LoadArrays) -> float:
+    """The shortest time a windowed load or a table segment acts (inf when none)."""
+    spans = [loads.terms[:, 2] - loads.terms[:, 1], loads.tables[:, 2] - loads.tables[:, 1]]
+    if len(loads.table_t) > 1:
+        knots = np.diff(loads.table_t)
+        spans.append(knots[knots > 0])  # segments within tables (consecutive tables concatenate)
+    values = np.concatenate(spans) if spans else np.zeros(0)
+    return float(np.min(values)) if values.size else float("inf")
+
+
 def active_forces(loads: LoadArrays) -> np.ndarray:
     """Rows of ``loads.forces`` that can exert a torque (non-zero arm and force)."""
     f = loads.forces
