@@ -183,6 +183,22 @@ def snapshot(
 
 
 @app.command()
+def stress(quick: Annotated[bool, typer.Option("--quick", help="The subset that runs in under two minutes.")] = False) -> None:
+    """Run the stress suite of hard scenes; exit 0 only if every check passes."""
+    from rotlab.stress.suite import run_suite
+
+    def report(outcome) -> None:
+        verdict = "PASS" if outcome.passed else "FAIL"
+        typer.echo(f"{verdict}  {outcome.name:44} {outcome.figure}  [bound {outcome.bound}; {outcome.seconds:.1f} s]")
+
+    outcomes = run_suite(quick, report)
+    passed = sum(o.passed for o in outcomes)
+    typer.echo(f"stress: {passed} of {len(outcomes)} checks passed")
+    if passed < len(outcomes):
+        raise typer.Exit(1)
+
+
+@app.command()
 def new(kind: Annotated[str, typer.Argument(help="euler, lagrange or general.")]) -> None:
     """Print a commented scenario template: `rotlab new lagrange > my_top.toml`."""
     from importlib.resources import files

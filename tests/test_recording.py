@@ -90,7 +90,9 @@ def test_failed_write_leaves_nothing_and_keeps_existing_file(tmp_path, monkeypat
         raise RuntimeError("disk full")
 
     monkeypatch.setattr(writer, "_write_series", boom)
-    with pytest.raises(RuntimeError):
+    from rotlab.errors import RunFailure
+
+    with pytest.raises(RunFailure, match="could not write the recording.*disk full"):
         write_recording(traj, target)
     assert target.read_bytes() == b"previous recording"
     assert [p.name for p in tmp_path.iterdir()] == ["keep.rrd"]

@@ -115,9 +115,14 @@ def _clean_loc(loc: tuple[Any, ...]) -> tuple[Any, ...]:
 
 
 def _dotted(loc: tuple[Any, ...]) -> str:
+    """TOML-style key path: loads[1].frame, sweep.parameters."initial.omega[0]"."""
     text = ""
     for part in loc:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+        if isinstance(part, int):
+            text += f"[{part}]"
+            continue
+        key = f'"{part}"' if any(c in str(part) for c in '.[] "') else str(part)
+        text += f".{key}" if text else key
     return text
 
 

@@ -312,6 +312,24 @@ class Sphere(_Model):
 
 Distribution = Union[Uniform, LogUniform, Normal, Sphere]
 GridValues = list[Union[Real, list[Real]]]
+_DISTRIBUTIONS = {"uniform": Uniform, "log_uniform": LogUniform, "normal": Normal, "sphere": Sphere}
+
+
+def _sweep_parameter(value: object) -> object:
+    """A list of grid values, or a one-key table naming a distribution."""
+    if isinstance(value, list):
+        return value
+    if isinstance(value, dict) and len(value) == 1 and next(iter(value)) in _DISTRIBUTIONS:
+        return _DISTRIBUTIONS[next(iter(value))].model_validate(value)
+    raise PydanticCustomError(
+        "rotlab",
+        "must be a list of grid values or one of { uniform = [lo, hi] }, { log_uniform = [lo, hi] }, "
+        "{ normal = [mean, sd] }, { sphere = magnitude } (found {found})",
+        {"found": repr(value)[:40]},
+    )
+
+
+SweepParameter = Annotated[Union[Distribution, GridValues], BeforeValidator(_sweep_parameter)]
 
 
 class Sweep(_Model):
@@ -319,7 +337,7 @@ class Sweep(_Model):
     grid point, reproducible from ``seed`` and the case number).  Keys are dotted paths such as
     "initial.omega", "initial.omega[2]", "body.principal_moments[0]", "loads[0].value"."""
 
-    parameters: dict[str, Union[Distribution, GridValues]]
+    parameters: dict[str, SweepParameter]
     samples: Annotated[int, Field(ge=1, le=1_000_000, strict=True)] | None = None
     seed: Annotated[int, Field(ge=0, strict=True)] = 0
 

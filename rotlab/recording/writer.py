@@ -13,7 +13,7 @@ import rerun as rr
 
 from rotlab.core import quaternion as quat
 from rotlab.core.quaternion import rotate_to_space_array
-from rotlab.errors import InputError
+from rotlab.errors import InputError, RunFailure
 from rotlab.recording import layout
 from rotlab.recording.geometry import Geometry, decimate, scene_geometry
 from rotlab.recording.report import run_report
@@ -26,15 +26,20 @@ AXIS_COLORS = [(230, 60, 60), (60, 200, 60), (70, 110, 240)]
 
 
 def check_output_path(path: Path) -> None:
-    """Fail early (before a long run) when the output cannot be written."""
+    """Fail early (before a long run) when the output cannot be written: a file is actually
+    created and removed beside it (permission bits say little when running as root)."""
     where = f"output {path}"
     if path.exists() and path.is_dir():
         raise InputError(where, "is a directory: give a file name ending in .rrd")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise InputError(where, f"directory {parent} does not exist: create it or choose another path")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(where, f"directory {parent} is not writable: choose another path with -o")
+    probe = parent / f".{path.name}.{os.getpid()}.probe"
+    try:
+        probe.touch(exist_ok=False)
+        probe.unlink()
+    except OSError as exc:
+        raise InputError(where, f"cannot write in {parent} ({exc.strerror}): choose another path with -o") from None
 
 
 def partial_path(path: Path) -> Path:
@@ -57,6 +62,9 @@ def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_
         rec.flush()
         rec.disconnect()
         os.replace(tmp, path)
+    except (OSError, RuntimeError) as exc:  # disk full, file system gone: nothing half-written stays
+        tmp.unlink(missing_ok=True)
+        raise RunFailure(f"could not write the recording {path}: {exc}") from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

@@ -1,0 +1,1 @@
+"""``rotlab stress``: hard scenes with pass/fail figures (numerical stability and robustness)."""
