@@ -28,6 +28,13 @@ def _fail(exc: Exception) -> None:
     raise typer.Exit(getattr(exc, "exit_code", 1))
 
 
+def _check_outdir(outdir: Path) -> None:
+    from rotlab.errors import InputError
+
+    if outdir.exists() and not outdir.is_dir():
+        raise InputError(f"--outdir {outdir}", "is a file: give a directory")
+
+
 def _version(value: bool) -> None:
     if value:
         typer.echo(f"rotlab {__version__}")
@@ -123,8 +130,7 @@ def batch(
 
     try:
         configs = collect_configs(paths)
-        if outdir.exists() and not outdir.is_dir():
-            raise InputError(f"--outdir {outdir}", "is a file: give a directory")
+        _check_outdir(outdir)
     except InputError as exc:
         _fail(exc)
     results = run_batch(configs, outdir, jobs)
@@ -148,8 +154,7 @@ def sweep(
     from rotlab.sweep.runner import plan, run_sweep
 
     try:
-        if outdir.exists() and not outdir.is_dir():
-            raise InputError(f"--outdir {outdir}", "is a file: give a directory")
+        _check_outdir(outdir)
         sweep_plan = plan(config)
         outdir.mkdir(parents=True, exist_ok=True)
         outcomes, how = run_sweep(sweep_plan, jobs=jobs, dask_address=dask)

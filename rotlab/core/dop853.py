@@ -100,12 +100,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
         at_break = t_new == limit and limit != t_end
         t_last = np.nextafter(t_new, -np.inf) if at_break else t_new
         for s in range(1, _STAGES):
-            for m in range(n):
-                acc = 0.0
-                for j in range(s):
-                    acc += _A[s, j] * K[j, m]
-                tmp[m] = y[m] + h * acc
-            rhs(min(t + _C[s] * h, t_last), tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
+            _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping)
         for m in range(n):
             acc = 0.0
             for j in range(_STAGES):
@@ -168,6 +163,17 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
     return OK, i, t, h
 
 
+@njit(cache=True, inline="always")
+def _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping):
+    """K[s] ← f(t + c_s h, y + h Σ_j a_sj K[j]), the stage time capped at ``t_last``."""
+    for m in range(y.shape[0]):
+        acc = 0.0
+        for j in range(s):
+            acc += _A[s, j] * K[j, m]
+        tmp[m] = y[m] + h * acc
+    rhs(min(t + _C[s] * h, t_last), tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
+
+
 @njit(cache=True)
 def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, euler, loads):
     """Stages 14–16 and the interpolant coefficients F (7 × n) of the step [t, t + h]
@@ -175,12 +181,7 @@ def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, euler, loads):
     forces, terms, tables, table_t, table_v, damping = loads
     n = y.shape[0]
     for s in range(_STAGES + 1, 16):
-        for m in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += _A[s, j] * K[j, m]
-            tmp[m] = y[m] + h * acc
-        rhs(min(t + _C[s] * h, t_last), tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
+        _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping)
     for m in range(n):
         dy = y_new[m] - y[m]
         F[0, m] = dy
