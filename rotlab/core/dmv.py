@@ -1,16 +1,18 @@
 """Discrete Moser–Veselov algorithm (DMV) for the free rigid body, with the modified moments of
-inertia of Hairer & Vilmart for orders 2, 4, 6, 8, 10.
+inertia of Hairer & Vilmart for orders 2, 4, 6, 8, 10, 12.
 
-E. Hairer, G. Vilmart, "Preprocessed discrete Moser–Veselov algorithm for the full dynamics of a
-rigid body", J. Phys. A: Math. Gen. 39 (2006) 13225–13235; modified moments of higher
-order are pending an independent derivation (tools/derive_dmv_moments.py); order 2 is offered.
+Method: E. Hairer, G. Vilmart, "Preprocessed discrete Moser–Veselov algorithm for the full
+dynamics of a rigid body", J. Phys. A: Math. Gen. 39 (2006) 13225–13235.  The coefficients of
+the modified moments (``modified_coefficients``) were derived for this project by
+tools/derive_dmv_moments.py (sympy; exact Taylor matching of one step against the exact flow,
+which proves a local error O(h^{p+1}) for m and Λ); the tests measure order p for ω and Λ.
 
 DMV step in quaternion form (m = I ω body angular momentum, h the step):  with the moments
 Ĩ_k (below), a_k = h m_k / (2 Ĩ_k) and f_1 = (Ĩ_2 − Ĩ_3)/Ĩ_1 (cyclic), solve for c ∈ R³
 
     c_k = (1 + |c|²) a_k + f_k c_i c_j        ((k, i, j) cyclic)
 
-by fixed-point iteration (the authors' Gauss–Seidel sweep, contraction factor O(h|ω|)) to machine
+by a Gauss–Seidel fixed-point sweep (contraction factor O(h|ω|)) to machine
 precision — Newton's method when that has not converged in 12 sweeps (large steps); a step with no
 solution near the identity makes the state non-finite, reported as such — then
 
@@ -18,8 +20,8 @@ solution near the identity makes the state non-finite, reported as such — then
 
 The rotation Ω = R((1, c)/√(1 + |c|²))ᵀ is the Moser–Veselov solution of h m̂ = Ωᵀ D − D Ω,
 m ← Ω m: with the exact c, a map that conserves |m| and ½ Σ m_k²/Ĩ_k, and L_space.  Λ is
-multiplied by that unit quaternion (the authors' code multiplies by (1, c) and then projects Λ
-back to |Λ| = 1, the same map in exact arithmetic); Λ is never renormalised: |Λ| − 1 stays at
+multiplied by that unit quaternion (multiplying by (1, c) and projecting back to |Λ| = 1 would
+be the same map in exact arithmetic, but hides drift); Λ is never renormalised: |Λ| − 1 stays at
 rounding level.
 
 Preprocessing (Hairer & Vilmart): plain DMV (Ĩ = I) is of order 2; by backward error analysis its
@@ -29,11 +31,15 @@ that this modified rigid body is the true one up to O(h^p),
 
     1/Ĩ_k = C_S / I_k + C_D,     C_S = 1 + Σ_{j≥1} s_j(h² N, h² H),  C_D = Σ_{j≥1} d_j(h² N, h² H)
 
-(s_j, d_j homogeneous of degree j; j ≤ p/2 − 1), gives order p for both m and Λ.  As in the
-authors' code, no other transformation of the initial data is made; the tests measure order p
-for ω and Λ against a dop853 reference.  H and N are exact invariants of the DMV map with fixed
-Ĩ (H because C_S ≠ 0), so the Ĩ are computed once per sample interval from the current m: the
-same values up to rounding as from the initial m, and the kernel stays a function of its state.
+(s_j, d_j homogeneous of degree j; j ≤ p/2 − 1), gives order p for both m and Λ.  The
+coefficients are symmetric functions of the moments, written in e1 = I_1 + I_2 + I_3,
+e2 = I_1 I_2 + I_2 I_3 + I_3 I_1, e3 = I_1 I_2 I_3; degree 1, for instance:
+s_1 = (e1 h²N − 2 e2 h²H)/(6 e3), d_1 = (e1 h²H − 2 h²N)/(6 e3).  No other transformation of the
+initial data is needed (the derivation matches the step itself, from the given m and Λ); the
+tests measure order p for ω and Λ against a dop853 reference.  H and N are exact invariants of
+the DMV map with fixed Ĩ (H because C_S ≠ 0), so the Ĩ are computed once per sample interval from
+the current m: the same values up to rounding as from the initial m, and the kernel stays a
+function of its state.
 """
 
 from __future__ import annotations
@@ -45,15 +51,87 @@ from rotlab.core.dynamics import all_finite
 
 OK, NONFINITE = 0, 1
 
-ORDERS = (2,)
+ORDERS = (2, 4, 6, 8, 10, 12)
 _FIXED_POINT_ITERATIONS = 12  # then Newton (large steps)
 _MAX_ITERATIONS = 50
 
 
 def modified_coefficients(moments) -> np.ndarray:
-    """(2, 5, 5) table: [0] the s-coefficients, [1] the d-coefficients; row j − 1 holds the
-    coefficients of N^{j−l} H^l, l = 0..j, of degree j.  Plain DMV (order 2): all zero."""
-    return np.zeros((2, 5, 5))
+    """(2, 6, 6) table: [0] the s-coefficients, [1] the d-coefficients; row j − 1 holds the
+    coefficients of N^{j−l} H^l, l = 0..j, of degree j (orders up to 12).  Derived (exact
+    rational functions, here in the elementary symmetric functions e1, e2, e3 of the moments) and
+    printed by tools/derive_dmv_moments.py, which proves the local error O(h^{2j+3}) for m and Λ."""
+    A, B, C = (float(x) for x in moments)
+    e1 = A + B + C
+    e2 = A * B + B * C + C * A
+    e3 = A * B * C
+    c = np.zeros((2, 6, 6))
+    # degree 1 (order 4)
+    c[0, 0, :2] = [
+        (e1) / (6*e3),
+        (-e2) / (3*e3),
+    ]
+    c[1, 0, :2] = [
+        (-1) / (3*e3),
+        (e1) / (6*e3),
+    ]
+    # degree 2 (order 6)
+    c[0, 1, :3] = [
+        (e1**2 - 3*e2) / (30*e3**2),
+        (-e1*e2 + 4*e3) / (30*e3**2),
+        (-e1*e3 + 2*e2**2) / (60*e3**2),
+    ]
+    c[1, 1, :3] = [
+        (-e1) / (60*e3**2),
+        (-e1**2 + 8*e2) / (60*e3**2),
+        (-e1*e2 - 6*e3) / (60*e3**2),
+    ]
+    # degree 3 (order 8)
+    c[0, 2, :4] = [
+        (17*e1**3 - 66*e1*e2 + 100*e3) / (2520*e3**3),
+        (-6*e1**2*e2 - 5*e1*e3 + 22*e2**2) / (420*e3**3),
+        (41*e1**2*e3 + 6*e1*e2**2 - 212*e2*e3) / (2520*e3**3),
+        (e1*e2*e3 - e2**3 + 18*e3**2) / (630*e3**3),
+    ]
+    c[1, 2, :4] = [
+        (-19*e1**2 + 72*e2) / (2520*e3**3),
+        (e1**3 - e1*e2 - 88*e3) / (1260*e3**3),
+        (13*e1**2*e2 + 110*e1*e3 - 64*e2**2) / (2520*e3**3),
+        (-13*e1**2*e3 + e1*e2**2 + 30*e2*e3) / (1260*e3**3),
+    ]
+    # degree 4 (order 10)
+    c[0, 3, :5] = [
+        (62*e1**4 - 342*e1**2*e2 + 291*e1*e3 + 378*e2**2) / (45360*e3**4),
+        (-77*e1**3*e2 + 141*e1**2*e3 + 306*e1*e2**2 - 1128*e2*e3) / (22680*e3**4),
+        (3*e1**3*e3 + 26*e1**2*e2**2 + 30*e1*e2*e3 - 102*e2**3 + 318*e3**2) / (7560*e3**4),
+        (-66*e1**2*e2*e3 - e1*e2**3 - 207*e1*e3**2 + 276*e2**2*e3) / (11340*e3**4),
+        (153*e1**2*e3**2 - 3*e1*e2**2*e3 + 2*e2**4 - 486*e2*e3**2) / (45360*e3**4),
+    ]
+    c[1, 3, :5] = [
+        (-61*e1**3 + 243*e1*e2 - 610*e3) / (45360*e3**4),
+        (-e1**4 + 222*e1**2*e2 + 684*e1*e3 - 864*e2**2) / (45360*e3**4),
+        (-5*e1**3*e2 - 133*e1**2*e3 + 19*e1*e2**2 + 356*e2*e3) / (7560*e3**4),
+        (97*e1**3*e3 - 15*e1**2*e2**2 - 276*e1*e2*e3 + 64*e2**3 - 648*e3**2) / (22680*e3**4),
+        (-6*e1**2*e2*e3 - e1*e2**3 + 459*e1*e3**2 - 126*e2**2*e3) / (45360*e3**4),
+    ]
+    # degree 5 (order 12)
+    c[0, 4, :6] = [
+        (1382*e1**5 - 9672*e1**3*e2 + 11067*e1**2*e3 + 16578*e1*e2**2 - 33300*e2*e3) / (4989600*e3**5),
+        (-2074*e1**4*e2 + 1747*e1**3*e3 + 12438*e1**2*e2**2 - 15186*e1*e2*e3 - 16578*e2**3 + 34000*e3**2) / (2494800*e3**5),
+        (2759*e1**4*e3 + 4154*e1**3*e2**2 - 39228*e1**2*e2*e3 - 16596*e1*e2**3 - 45948*e1*e3**2 + 145320*e2**2*e3) / (4989600*e3**5),
+        (-90*e1**3*e2*e3 - 694*e1**2*e2**3 + 11481*e1**2*e3**2 - 963*e1*e2**2*e3 + 2766*e2**4 - 41814*e2*e3**2) / (1247400*e3**5),
+        (-7339*e1**3*e3**2 + 5241*e1**2*e2**2*e3 + 10*e1*e2**4 + 31338*e1*e2*e3**2 - 21124*e2**3*e3 + 59508*e3**3) / (4989600*e3**5),
+        (-819*e1**2*e2*e3**2 + 4*e1*e2**3*e3 - 7641*e1*e3**3 - 2*e2**5 + 5022*e2**2*e3**2) / (2494800*e3**5),
+    ]
+    c[1, 4, :6] = [
+        (-1384*e1**4 + 8559*e1**2*e2 - 3270*e1*e3 - 12096*e2**2) / (4989600*e3**5),
+        (e1**5 + 1813*e1**3*e2 - 10365*e1**2*e3 - 7263*e1*e2**2 + 47298*e2*e3) / (2494800*e3**5),
+        (251*e1**4*e2 + 12444*e1**3*e3 - 8790*e1**2*e2**2 - 45960*e1*e2*e3 + 31104*e2**3 - 110664*e3**2) / (4989600*e3**5),
+        (-1095*e1**4*e3 + 219*e1**3*e2**2 + 7782*e1**2*e2*e3 - 871*e1*e2**3 + 26793*e1*e3**2 - 20496*e2**2*e3) / (1247400*e3**5),
+        (-774*e1**3*e2*e3 + 251*e1**2*e2**3 - 48285*e1**2*e3**2 + 12198*e1*e2**2*e3 - 1024*e2**4 + 63288*e2*e3**2) / (4989600*e3**5),
+        (2169*e1**3*e3**2 - 555*e1**2*e2**2*e3 + e1*e2**4 - 2133*e1*e2*e3**2 + 510*e2**3*e3 - 8424*e3**3) / (2494800*e3**5),
+    ]
+    return c
 
 
 @njit(cache=True)

@@ -1,5 +1,6 @@
 """``dmv``: discrete Moser–Veselov algorithm for the free rigid body, with Hairer & Vilmart's
-modified moments of inertia for orders 2, 4, 6, 8, 10 (``solver.order``, default 4).
+modified moments of inertia (coefficients derived by tools/derive_dmv_moments.py) for orders
+``ORDERS`` = 2, 4, 6, 8, 10, 12 (``solver.order``, default the highest).
 
 Torque-free scenes only.  Conserves |L| and the energy exactly up to rounding (no drift) and
 L_space up to O(h^order); |Λ| = 1 to rounding (never renormalised).  No right-hand side
@@ -8,23 +9,9 @@ evaluations.  See ``rotlab.core.dmv``.
 
 from __future__ import annotations
 
-import numpy as np
-
 from rotlab.core.dmv import ORDERS, dmv_advance, modified_coefficients
-from rotlab.errors import InputError
-from rotlab.methods.base import ProgressCallback, Settings, Solution
 from rotlab.methods.fixed_step import FixedStepMethod
 from rotlab.scene.scene import TORQUE_FREE, Scene
-
-DEFAULT_ORDER = 2
-
-
-def chosen_order(settings: Settings) -> int:
-    order = getattr(settings, "order", None)
-    order = DEFAULT_ORDER if order is None else order
-    if order not in ORDERS:
-        raise InputError("solver.order", f"dmv offers orders {', '.join(map(str, ORDERS))} (got {order})")
-    return int(order)
 
 
 def _requires(scene: Scene) -> str | None:
@@ -33,19 +20,14 @@ def _requires(scene: Scene) -> str | None:
     return None
 
 
-class DMVMethod(FixedStepMethod):
-    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
-        order = chosen_order(settings)
-        solution = super().solve(scene, t, settings, progress)
-        solution.details["order"] = order
-        return solution
-
-
-METHOD = DMVMethod(
+METHOD = FixedStepMethod(
     name="dmv",
-    summary="discrete Moser–Veselov with modified moments (Hairer–Vilmart), order 2–10, free body, fixed step",
+    summary="discrete Moser–Veselov with modified moments (Hairer–Vilmart), orders 2–12, free body, fixed step",
     kernel=dmv_advance,
-    evaluations_per_step=0,
+    order_of_accuracy=2,
+    orders=ORDERS,
+    default_order=max(ORDERS),
+    evaluations_per_step=lambda scene, order: 0,  # no right-hand side: an implicit rotation per step
     requires=_requires,
-    extra_args=lambda scene, settings: (chosen_order(settings), modified_coefficients(scene.moments)),
+    extra_args=lambda scene, order: (order, modified_coefficients(scene.moments)),
 )
