@@ -12,7 +12,6 @@ import time
 import numba
 import numpy as np
 
-import rotlab
 from rotlab.config import parse_scenario
 from rotlab.core.dynamics import euler_coefficients
 from rotlab.core.ensemble import rk4_ensemble

@@ -9,9 +9,8 @@ import pyarrow.parquet as pq
 import pytest
 
 import rotlab
-from rotlab.config import parse_scenario
-from rotlab.sweep.cases import apply, expand, parse_path
-from rotlab.sweep.runner import plan, run_ensemble, run_sweep, run_sweep_case
+from rotlab.sweep.cases import expand, parse_path
+from rotlab.sweep.runner import plan, run_sweep, run_sweep_case
 from tests.conftest import CONFIGS, VALID_BODY
 
 SWEEP = VALID_BODY + """

@@ -3,7 +3,6 @@ over bodies (numba ``prange``), each body stepped by the ordinary RK4 kernel."""
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit, prange
 
 from rotlab.core.rk4 import rk4_advance

@@ -15,7 +15,6 @@ from scipy.special import ellipk
 import rotlab
 from rotlab.checks import flip_times
 from rotlab.config import parse_scenario
-from rotlab.core import quaternion as quat
 from rotlab.errors import InputError
 
 

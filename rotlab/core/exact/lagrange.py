@@ -69,6 +69,8 @@ from decimal import Context, Decimal, localcontext
 import numpy as np
 from scipy import special
 
+from rotlab.core.exact.doubledouble import from_decimal, two_prod, two_sum
+
 __all__ = ["lagrange_top_solution"]
 
 _MC_MIN = 1e-150  # 1 − m floor: m = 1 (infinite period) as the limit of the periodic motion
@@ -168,35 +170,17 @@ def _first_root(c: tuple, a, b):
 # --------------------------------------------------------------------- double-double ---
 
 
-def _two_sum(a, b):
-    """s + e = a + b exactly."""
-    s = a + b
-    bb = s - a
-    return s, (a - (s - bb)) + (b - bb)
 
 
-def _split(a):
-    c = 134217729.0 * a
-    hi = c - (c - a)
-    return hi, a - hi
 
 
-def _two_prod(a, b):
-    """p + e = a·b exactly (Dekker)."""
-    p = a * b
-    ah, al = _split(a)
-    bh, bl = _split(b)
-    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
-def _dd(x: Decimal) -> tuple[float, float]:
-    hi = float(x)
-    return hi, float(x - Decimal(hi))
 
 
 def _dd_times(rate: tuple[float, float], dt: tuple[np.ndarray, np.ndarray]):
     """rate·dt as an unnormalised pair (p, e), p + e exact to ~1e-32 relative."""
-    p, e = _two_prod(rate[0], dt[0])
+    p, e = two_prod(rate[0], dt[0])
     return p, e + rate[0] * dt[1] + rate[1] * dt[0]
 
 
@@ -204,7 +188,7 @@ def _angle(rate: tuple[float, float], dt) -> np.ndarray:
     """rate·dt reduced to (−π, π] without losing the low-order bits."""
     p, e = _dd_times(rate, dt)
     k = np.rint(p / _TWO_PI[0])
-    kh, kl = _two_prod(k, _TWO_PI[0])
+    kh, kl = two_prod(k, _TWO_PI[0])
     return ((p - kh) - kl) + (e - k * _TWO_PI[1])
 
 
@@ -529,9 +513,9 @@ def _motion(st: _State, x1: Decimal, x2: Decimal) -> _Motion:
     mot = _Motion(
         lam=float(lam), delta=float(delta), sign_u=1.0 if up else -1.0,
         mod=_Modulus.of(float(m), float(mc), float(K)), sides=(minus, plus),
-        phase_rate=_dd(lam / K),
-        sigma_rate=_dd(st.nu + st.s * rate_p / 2),
-        delta_rate=_dd(-st.nu + st.d * rate_m / 2),
+        phase_rate=from_decimal(lam / K),
+        sigma_rate=from_decimal(st.nu + st.s * rate_p / 2),
+        delta_rate=from_decimal(-st.nu + st.d * rate_m / 2),
         a=float(st.a), horiz0=float(st.d + st.a * st.one_minus_u0), x_start=float(x1 if up else x2),
     )
     s2, c2 = (-x1, x2) if up else (x2, -x1)
@@ -700,7 +684,7 @@ def _evaluate_regular(st: _State, dt) -> tuple[np.ndarray, np.ndarray]:
     sigma_rate = st.nu + (st.s / (2 * st.one_plus_u0) if st.s != 0 else 0)
     delta_rate = -st.nu + (st.d / (2 * st.one_minus_u0) if st.d != 0 else 0)
     h_p, sigma0, h_m, delta0 = _cayley_klein(st)
-    dsigma, ddelta = _angle(_dd(sigma_rate), dt), _angle(_dd(delta_rate), dt)
+    dsigma, ddelta = _angle(from_decimal(sigma_rate), dt), _angle(from_decimal(delta_rate), dt)
     w = complex(float(st.q), float(st.p)) * np.exp(1j * (dsigma - ddelta))
     ones = np.ones_like(dsigma)
     return _assemble(h_p * ones, sigma0 + dsigma, h_m * ones, delta0 + ddelta, w, float(st.r))
@@ -722,7 +706,7 @@ def lagrange_top_solution(
     t = np.asarray(t, dtype=float)
     omega0 = np.asarray(omega0, dtype=float).reshape(3)
     k = _rate_unit(float(A), float(mgl), omega0)
-    dt = tuple(part * k for part in _two_sum(t.ravel(), np.full(t.size, -float(t0))))
+    dt = tuple(part * k for part in two_sum(t.ravel(), np.full(t.size, -float(t0))))
     with localcontext(Context(prec=_DIGITS)):  # independent of the caller's decimal context
         st = _state(float(A), float(C), float(mgl) / k / k, omega0 / k, q0)
         x1, x2 = _band(st)

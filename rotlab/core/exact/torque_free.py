@@ -63,6 +63,7 @@ import numpy as np
 from scipy import special
 
 from rotlab.core.quaternion import conjugate_array, from_matrix, multiply_array, rotate_to_space_array
+from rotlab.core.exact.doubledouble import from_decimal, two_prod, two_sum
 
 __all__ = ["torque_free_solution"]
 
@@ -77,30 +78,12 @@ Evaluator = Callable[[DD], tuple[np.ndarray, np.ndarray]]  # τ = t − t0 ↦ (
 
 
 # ---------------------------------------------------------------- double-double arithmetic
-def _two_sum(a, b):
-    """s + e = a + b exactly (Knuth)."""
-    s = a + b
-    bb = s - a
-    return s, (a - (s - bb)) + (b - bb)
 
 
-def _split(a):
-    c = 134217729.0 * a  # 2**27 + 1
-    hi = c - (c - a)
-    return hi, a - hi
 
 
-def _two_prod(a, b):
-    """p + e = a · b exactly (Dekker)."""
-    p = a * b
-    ah, al = _split(a)
-    bh, bl = _split(b)
-    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
-def _dd(x: Decimal) -> DD:
-    hi = float(x)
-    return hi, float(x - Decimal(hi))
 
 
 def _decimal_context():
@@ -109,21 +92,21 @@ def _decimal_context():
 
 
 with _decimal_context():
-    _FOUR_PI = _dd(4 * _PI)
+    _FOUR_PI = from_decimal(4 * _PI)
 
 
 def _reduce(rate: DD, tau: DD, offset: float, period: DD | None):
     """x = rate · τ + offset in double-double, split as x = j · period + r with |r| ≤ period/2.
 
     Returns (j, r) as float arrays; r is accurate to a few ulp of |r| + ε²|x|."""
-    hi, lo = _two_prod(rate[0], tau[0])
+    hi, lo = two_prod(rate[0], tau[0])
     lo = lo + (rate[0] * tau[1] + rate[1] * tau[0])
-    hi, e = _two_sum(hi, offset)
+    hi, e = two_sum(hi, offset)
     lo = lo + e
     if period is None:
         return np.zeros_like(hi), hi + lo
     j = np.rint((hi + lo) / period[0])
-    q, f = _two_prod(j, period[0])  # hi − q is exact (Sterbenz)
+    q, f = two_prod(j, period[0])  # hi − q is exact (Sterbenz)
     return j, (hi - q) + (lo - f - j * period[1])
 
 
@@ -212,8 +195,8 @@ def _axisymmetric(inertia, omega0, q0, k: int, a_perp: float, c_axis: float) -> 
     w = [Fraction(x) for x in omega0]
     big_l2 = sum(Fraction(i) ** 2 * x * x for i, x in zip(inertia, w))
     with _decimal_context():
-        rate_body = _dd(_dec((Fraction(c_axis) - Fraction(a_perp)) * w[k] / Fraction(a_perp)))
-        rate_space = _dd(_dec(big_l2).sqrt() / _dec(Fraction(a_perp)))
+        rate_body = from_decimal(_dec((Fraction(c_axis) - Fraction(a_perp)) * w[k] / Fraction(a_perp)))
+        rate_space = from_decimal(_dec(big_l2).sqrt() / _dec(Fraction(a_perp)))
     l_space = rotate_to_space_array(q0, inertia * omega0)
     norm = np.linalg.norm(l_space)
     n = l_space / norm if norm > 0.0 else np.array([0.0, 0.0, 1.0])
@@ -312,12 +295,12 @@ def _elliptic_constants(inertia_g: np.ndarray, omega_g: np.ndarray) -> _Elliptic
         else:
             kc = _dec(m1).sqrt()
             k_big, pi_c = _cel(kc, Decimal(1)), _cel(kc, 1 + _dec(nu))
-            half_period = _dd(2 * k_big)
+            half_period = from_decimal(2 * k_big)
             psi_rate = big_l / _dec(j3) * (1 - _dec(j2 - j3) * pi_c / (_dec(j2) * k_big))
             p_a, p_b = c * (pi_c / k_big - 1), c * _dec(nu) / 3
         return _Elliptic(
             amp=np.array([float(x) for x in amp]),
-            lam=_dd(lam),
+            lam=from_decimal(lam),
             u0=float(u0),
             half_period=half_period,
             m=float(1 - m1),
@@ -325,7 +308,7 @@ def _elliptic_constants(inertia_g: np.ndarray, omega_g: np.ndarray) -> _Elliptic
             k_big=float(k_big),
             k_comp=float(special.ellipk(float(m1))),
             nu=float(nu),
-            psi_rate=_dd(psi_rate),
+            psi_rate=from_decimal(psi_rate),
             p_a=float(p_a),
             p_b=float(p_b),
         )
@@ -419,7 +402,7 @@ def torque_free_solution(moments, omega0, q0, t0, t) -> tuple[np.ndarray, np.nda
     else:
         evaluate = _asymmetric(inertia, omega0, q0)
 
-    tau_hi, tau_lo = _two_sum(t.ravel(), -float(t0))  # t − t0 exactly
+    tau_hi, tau_lo = two_sum(t.ravel(), -float(t0))  # t − t0 exactly
     q, omega = np.empty((t.size, 4)), np.empty((t.size, 3))
     for start in range(0, t.size, _CHUNK):  # chunks keep the temporaries in cache
         part = slice(start, start + _CHUNK)
