@@ -32,11 +32,14 @@ EULER_ANGLES = "/euler_angles"  # (ψ, θ, φ) rad
 INFO = "/info"  # TextDocument: scenario, method, run statistics
 
 
-def blueprint(invariants: list[str], euler_angles: bool) -> rrb.Blueprint:
+def blueprint(invariants: list[str], euler_angles: bool, energy_range: tuple[float, float] | None = None) -> rrb.Blueprint:
+    """The default layout.  ``energy_range`` fixes the energy plot's axis (so that a constant
+    energy is drawn flat, not zoomed onto its rounding noise)."""
+    energy_axis = None if energy_range is None else rrb.ScalarAxis(range=energy_range)
     plots = [
         rrb.TimeSeriesView(origin=OMEGA, name="ω, body frame (rad/s)"),
         rrb.TimeSeriesView(origin=L_SPACE, name="L, space frame (kg·m²/s)"),
-        rrb.TimeSeriesView(origin=ENERGY, name="Energy (J)"),
+        rrb.TimeSeriesView(origin=ENERGY, name="Energy (J)", axis_y=energy_axis),
         rrb.TimeSeriesView(origin=INVARIANTS_LOG, name="Invariant drift, log10 |relative|"),
     ]
     if euler_angles:

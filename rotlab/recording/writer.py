@@ -54,7 +54,7 @@ def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     try:
         rec = rr.RecordingStream("rotlab", recording_id=uuid.uuid4())
-        rec.save(tmp, default_blueprint=layout.blueprint(list(traj.invariants), traj.euler_angles is not None))
+        rec.save(tmp, default_blueprint=layout.blueprint(list(traj.invariants), traj.euler_angles is not None, energy_range(traj)))
         with np.errstate(over="ignore", invalid="ignore"):  # display-only float32 casts of a run that blew up
             views = _views(traj)
             _write_static(rec, traj, views)
@@ -69,6 +69,18 @@ def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def energy_range(traj: Trajectory, min_span: float = 0.02) -> tuple[float, float] | None:
+    """The energy plot's y range: the data, widened to at least ``min_span`` of the energy scale."""
+    values = series(traj)[layout.ENERGY][0]
+    finite = values[np.isfinite(values)]
+    if not finite.size:
+        return None
+    low, high = float(finite.min()), float(finite.max())
+    span = max(high - low, min_span * max(abs(low), abs(high), 1e-300))
+    middle = 0.5 * (low + high)
+    return middle - 0.55 * span, middle + 0.55 * span
 
 
 def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
