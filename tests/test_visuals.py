@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import glob
+import subprocess
 
 import numpy as np
 import pytest
@@ -68,6 +69,8 @@ def test_snapshot_renders_the_viewer(cli, tmp_path, euler):
     assert image.size[0] >= 960 and image.size[1] >= 540  # logical points; HiDPI may double
     pixels = np.asarray(image.convert("L"), dtype=float)
     assert pixels.std() > 10.0  # a drawn viewer, not a blank frame
+    leftover = subprocess.run(["pgrep", "-f", "rerun.*--headless.*--screenshot|rerun_cli/rerun --headless"], capture_output=True, text=True)
+    assert not leftover.stdout.strip(), "the headless viewer outlived the snapshot"
 
 
 def test_snapshot_refuses_bad_input(cli, tmp_path, euler):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import glob
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -82,6 +83,7 @@ def snapshot(recording: Path, output: Path, at: float | None, size: tuple[int, i
         [rerun_executable(), "--headless", "--renderer", "vulkan", "--window-size", f"{size[0]}x{size[1]}",
          "--port", str(port), "--hide-welcome-screen"],
         env=vulkan_environment(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        start_new_session=True,  # `rerun` is a wrapper that starts the viewer as a child: end the group
     )
     tmp = output.with_name(f".{output.stem}.{os.getpid()}.tmp.png")
     try:
@@ -98,12 +100,27 @@ def snapshot(recording: Path, output: Path, at: float | None, size: tuple[int, i
         os.replace(tmp, output)
     finally:
         tmp.unlink(missing_ok=True)
-        viewer.terminate()
-        try:
-            viewer.wait(10)
-        except subprocess.TimeoutExpired:
-            viewer.kill()
+        _stop(viewer)
     return output
+
+
+def _stop(viewer: subprocess.Popen, grace: float = 10.0) -> None:
+    """End the viewer and every process it started (its process group): SIGTERM, then SIGKILL
+    for whatever is left after ``grace`` seconds."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(viewer.pid, sig)
+        except ProcessLookupError:
+            break
+        deadline = time.monotonic() + grace
+        while time.monotonic() < deadline:
+            viewer.poll()  # reap the direct child
+            try:
+                os.killpg(viewer.pid, 0)  # anyone left in the group?
+            except ProcessLookupError:
+                return
+            time.sleep(0.1)
+    viewer.poll()
 
 
 def _free_port() -> int:
