@@ -10,6 +10,7 @@ from typing import Annotated, Optional
 import typer
 
 from rotlab import __version__
+from rotlab.bench.command import bench
 
 app = typer.Typer(
     name="rotlab",
@@ -201,6 +202,9 @@ def stress(quick: Annotated[bool, typer.Option("--quick", help="The subset that 
     typer.echo(f"stress: {passed} of {len(outcomes)} checks passed")
     if passed < len(outcomes):
         raise typer.Exit(1)
+
+
+app.command(name="bench")(bench)
 
 
 @app.command()

@@ -1,0 +1,172 @@
+"""Reports of a benchmark run: terminal tables, JSON, work-precision PNG plots (matplotlib,
+optional: imported only when plots are asked for)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from rotlab.bench.runner import THRESHOLD, Record
+
+
+def _e(x: float | None) -> str:
+    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.2e}"
+
+
+def _s(x: float | None) -> str:
+    if x is None:
+        return "—"
+    if x < 1e-3:
+        return f"{x * 1e6:.0f} µs"
+    if x < 1.0:
+        return f"{x * 1e3:.3g} ms"
+    return f"{x:.3g} s"
+
+
+def work_precision_table(records: list[Record], problem: str, title: str = "", reference: str = "") -> str:
+    rs = [r for r in records if r.problem == problem]
+    metric = rs[0].metric if rs else ""
+    lines = [f"== {problem}: {title}", f"   metric: {metric}; reference: {reference}"] if title else [f"== {problem}"]
+    lines.append(f"   {'method':24} {'setting':>12} {'max error':>10} {'time':>10} {'×':>3} {'compile':>8} {'steps':>10} {'f evals':>10} {'|ΔH|/H':>9} {'||Λ|-1|':>9}")
+    for r in rs:
+        fail = f"  ({r.failure[:60]})" if r.failure else ""
+        lines.append(
+            f"   {r.method:24} {r.setting:>12} {_e(r.max_error):>10} {_s(r.seconds):>10} {r.repeats:>3} {r.compile_seconds:8.2f} "
+            f"{'' if r.steps is None else r.steps:>10} {'' if r.rhs_evaluations is None else r.rhs_evaluations:>10} "
+            f"{_e(r.energy_error):>9} {_e(r.norm_error):>9}{fail}"
+        )
+    return "\n".join(lines)
+
+
+def _side(best: dict[str, Any] | None) -> str:
+    if best is None:
+        return "no runs"
+    if not best["reached"]:
+        return f"not reached (best {_e(best['best_error'])}: {best['method']} {best['setting']}, {_s(best['seconds'])})"
+    return f"{best['method']} {best['setting']} {_s(best['seconds'])} (interp. {_s(best['interpolated_seconds'])})"
+
+
+def _ratio(row: dict[str, Any], key: str) -> str:
+    x, y = row.get(key), row.get(key + "_interpolated")
+    if x is None:
+        return "—"
+    return f"{x:,.0f}× (interp. {y:,.0f}×)"
+
+
+def ratio_table(rows: list[dict[str, Any]]) -> str:
+    if not rows:
+        return ""
+    threshold = rows[0]["threshold"]
+    lines = [f"== speed-up at max error ≤ {threshold:g}: fastest run reaching it on each side (and the log-log interpolated time at exactly {threshold:g})"]
+    for row in rows:
+        lines.append(f"   {row['problem']} ({row['metric']}):")
+        lines.append(f"      rotlab best       {_side(row['rotlab'])}")
+        lines.append(f"      rotlab stepping   {_side(row['rotlab_stepping'])}")
+        lines.append(f"      scipy best        {_side(row['scipy'])}")
+        lines.append(f"      scipy DOP853      {_side(row['scipy_dop853'])}")
+        lines.append(f"      seed RK4          {_side(row['seed'])}")
+        lines.append(f"      rotlab/scipy: {_ratio(row, 'rotlab_vs_scipy')}   rotlab/scipy DOP853: {_ratio(row, 'rotlab_vs_scipy_dop853')}   "
+                     f"stepping/scipy: {_ratio(row, 'rotlab_stepping_vs_scipy')}   rotlab/seed: {_ratio(row, 'rotlab_vs_seed')}")
+    return "\n".join(lines)
+
+
+def throughput_table(rows: list[dict[str, Any]], recording: dict[str, Any] | None) -> str:
+    lines = []
+    if rows:
+        lines.append(f"== single-body throughput, {rows[0]['problem']} (kernel time, median)")
+        lines.append(f"   {'method':24} {'setting':>11} {'steps':>10} {'time':>10} {'ns/step':>9} {'M steps/s':>10} {'compile':>8}")
+        for r in rows:
+            lines.append(f"   {r['method']:24} {r['setting']:>11} {r['steps']:>10} {_s(r['seconds']):>10} {r['ns_per_step']:9.1f} "
+                         f"{r['steps_per_second'] / 1e6:10.3f} {r['compile_seconds']:8.2f}" + (f"  ({r['note']})" if r.get("note") else ""))
+    if recording:
+        lines.append(f"== recording: {recording['rows']:,} samples of the full layout in {_s(recording['seconds'])}: "
+                     f"{recording['rows_per_second'] / 1e6:.2f} M rows/s, {recording['bytes_per_sample']:.0f} B/sample")
+    return "\n".join(lines)
+
+
+def run_timing_table(rows: list[dict[str, Any]]) -> str:
+    lines = ["== `rotlab run CONFIG -q` end to end (subprocess): cold = empty NUMBA_CACHE_DIR, warm = cache filled (medians)"]
+    for r in rows:
+        lines.append(f"   {r['problem']:20} cold {r['cold_seconds']:6.2f} s   warm {r['warm_seconds']:6.2f} s")
+    return "\n".join(lines)
+
+
+def energy_table(rows: list[dict[str, Any]]) -> str:
+    if not rows:
+        return ""
+    lines = [f"== energy error over {rows[0]['steps']:.0e} steps, GNI free body, h = {rows[0]['step']:g}: max |ΔH|/H₀ checked after every step, "
+             f"per {len(rows[0]['windows'])}th of the run"]
+    for r in rows:
+        lines.append(f"   {r['method']:12} max {_e(r['max_error'])}  windows: " + " ".join(_e(w) for w in r["windows"]) + f"   ({r['seconds']:.1f} s)")
+    return "\n".join(lines)
+
+
+def write_json(path: Path, records: list[Record], extra: list[dict[str, Any]]) -> None:
+    """A list of objects: every work-precision record (problem, method, setting, max_error, seconds, ...),
+    then the ratio, throughput, recording, run-timing and energy-window objects (``kind`` says which)."""
+    items = [r.to_json() for r in records] + [_clean(x) for x in extra]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(items, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+
+
+def _clean(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {k: _clean(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_clean(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def write_plots(directory: Path, records: list[Record], titles: dict[str, str]) -> list[Path]:
+    """One work-precision PNG per problem: max error against wall time, log-log; rotlab solid,
+    scipy dashed, the seeds' RK4 dotted; a line at the comparison threshold."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise RuntimeError("--plots needs matplotlib, which is not a rotlab dependency: pip install matplotlib (or pip install 'rotlab[plots]')") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for problem in dict.fromkeys(r.problem for r in records):
+        rs = [r for r in records if r.problem == problem and r.max_error is not None and math.isfinite(r.max_error) and r.max_error > 0]
+        if not rs:
+            continue
+        fig, ax = plt.subplots(figsize=(8.5, 6.0))
+        series = list(dict.fromkeys(r.series for r in rs))
+        ours = plt.get_cmap("tab20")
+        theirs = ["#555555", "#b8860b", "#8b0000", "#4b0082", "#000000"]
+        k_ours = k_theirs = 0
+        for name in series:
+            pts = [r for r in rs if r.series == name]
+            side = pts[0].side
+            if side == "rotlab":
+                color = ours((2 * k_ours) % 20 + (k_ours // 10) % 2)
+                k_ours += 1
+            else:
+                color = theirs[k_theirs % len(theirs)]
+                k_theirs += 1
+            style = {"rotlab": "-", "scipy": "--", "seed": ":"}[side]
+            marker = "*" if name == "exact" else ("o" if side == "rotlab" else "s")
+            ax.plot([r.seconds for r in pts], [r.max_error for r in pts], style, marker=marker, ms=9 if name == "exact" else 4,
+                    color=color, label=name, lw=1.6 if side == "rotlab" else 1.3)
+        ax.axhline(THRESHOLD, color="0.5", lw=0.8, ls="-.")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall time, s (median of repeats, compile excluded)")
+        ax.set_ylabel({"state": "max error (ω relative, attitude)", "energy": "max |ΔH|/H₀",
+                       "kovalevskaya": "max |K − K₀|/K₀"}.get(rs[0].metric, "max error"))
+        ax.set_title(f"{problem}: {titles.get(problem, '')}", fontsize=9)
+        ax.grid(True, which="major", alpha=0.3)
+        ax.legend(fontsize=7, ncol=2, loc="best")
+        fig.tight_layout()
+        path = directory / f"wp_{problem.replace(':', '_')}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths
