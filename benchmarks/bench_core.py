@@ -51,7 +51,7 @@ def main() -> None:
 
     def rk4_run():
         y = initial_state(scene.q0, scene.omega0)
-        rk4.rk4_advance(y, t, out, 1, 1000, n_steps, euler, loads)
+        rk4.rk4_advance(y, t, out, 1, 1000, n_steps, euler, loads, np.zeros(0))
 
     started = time.perf_counter()
     rk4_run()

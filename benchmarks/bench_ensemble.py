@@ -41,12 +41,12 @@ def main() -> None:
     body_steps = args.bodies * substeps * (samples - 1)
 
     def ensemble():
-        rk4_ensemble(y0, times, out, substeps, 10**12, euler, loads, status, valid)
+        rk4_ensemble(y0, times, out, substeps, 10**12, euler, loads, np.zeros(0), status, valid)
 
     def serial():
         for b in range(args.bodies):
             y = y0[b].copy()
-            rk4_advance(y, times, out[b], 1, substeps, 10**12, euler, loads)
+            rk4_advance(y, times, out[b], 1, substeps, 10**12, euler, loads, np.zeros(0))
 
     rows = []
     for name, fn in (("rk4 ensemble (prange)", ensemble), ("rk4 single-body kernel, Python loop", serial)):

@@ -3,7 +3,10 @@
     k1 = f(t, y), k2 = f(t + h/2, y + h k1/2), k3 = f(t + h/2, y + h k2/2), k4 = f(t + h, y + h k3)
     y ← y + h (k1 + 2 k2 + 2 k3 + k4) / 6
 Each sample interval [t_{i−1}, t_i] is split into ``substeps`` equal steps, so samples fall on
-steps exactly.
+steps exactly.  A step that contains a load breakpoint (a window edge or table knot, see
+``rotlab.scene.loads.breakpoints``) is split there: the part ending at the breakpoint sees the
+loads' left limit, the next part starts from the right limit, so a switching load does not cost
+RK4 its order.
 """
 
 from __future__ import annotations
@@ -17,11 +20,12 @@ OK, NONFINITE = 0, 1
 
 
 @njit(cache=True)
-def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads):
+def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, breaks):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, writing ``out[i]``.
 
     Stops after at most ``max_steps`` steps (at a sample).  Returns (status, next sample index,
-    steps taken); on NONFINITE the returned index is the sample whose interval failed.
+    steps taken, partial steps at breakpoints included); on NONFINITE the returned index is the
+    sample whose interval failed.  ``breaks``: sorted load breakpoints (may be empty).
     """
     forces, terms, tables, table_t, table_v, damping = loads  # unpacked once: see dynamics.torques
     n = STATE_SIZE
@@ -32,24 +36,37 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads):
     tmp = np.empty(n)
     steps = 0
     i = i_start
+    nb = breaks.shape[0]
+    b = np.searchsorted(breaks, times[i_start - 1], side="right")  # next breakpoint
     while i < times.shape[0] and steps + substeps <= max_steps:
         t0 = times[i - 1]
-        h = (times[i] - t0) / substeps
+        h_nominal = (times[i] - t0) / substeps
         for j in range(substeps):
-            t = t0 + j * h
-            rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
-            for m in range(n):
-                tmp[m] = y[m] + 0.5 * h * k1[m]
-            rhs(t + 0.5 * h, tmp, k2, euler, forces, terms, tables, table_t, table_v, damping)
-            for m in range(n):
-                tmp[m] = y[m] + 0.5 * h * k2[m]
-            rhs(t + 0.5 * h, tmp, k3, euler, forces, terms, tables, table_t, table_v, damping)
-            for m in range(n):
-                tmp[m] = y[m] + h * k3[m]
-            rhs(t + h, tmp, k4, euler, forces, terms, tables, table_t, table_v, damping)
-            for m in range(n):
-                y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
-        steps += substeps
+            t = t0 + j * h_nominal
+            t_end = times[i] if j == substeps - 1 else t0 + (j + 1) * h_nominal
+            while t < t_end:  # one step, or its pieces between breakpoints
+                while b < nb and breaks[b] <= t:
+                    b += 1
+                end = t_end
+                t_last = t_end  # where the last stage samples the loads
+                if b < nb and breaks[b] <= t_end:
+                    end = breaks[b]
+                    t_last = np.nextafter(end, -np.inf)  # the left limit at the breakpoint
+                h = end - t
+                rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
+                for m in range(n):
+                    tmp[m] = y[m] + 0.5 * h * k1[m]
+                rhs(t + 0.5 * h, tmp, k2, euler, forces, terms, tables, table_t, table_v, damping)
+                for m in range(n):
+                    tmp[m] = y[m] + 0.5 * h * k2[m]
+                rhs(t + 0.5 * h, tmp, k3, euler, forces, terms, tables, table_t, table_v, damping)
+                for m in range(n):
+                    tmp[m] = y[m] + h * k3[m]
+                rhs(t_last, tmp, k4, euler, forces, terms, tables, table_t, table_v, damping)
+                for m in range(n):
+                    y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
+                steps += 1
+                t = end
         if not all_finite(y):
             return NONFINITE, i, steps
         out[i, :] = y

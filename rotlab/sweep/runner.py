@@ -116,6 +116,7 @@ def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
     from rotlab.methods.base import Settings, Solution
     from rotlab.methods.registry import get_method
     from rotlab.methods.stepping import initial_state
+    from rotlab.scene.loads import breakpoints
     from rotlab.scene.scene import build_scene
     from rotlab.trajectory import RunStats, build_trajectory
 
@@ -132,7 +133,8 @@ def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
     out = np.empty((len(scenes), t.shape[0], 8))
     status = np.zeros(len(scenes), dtype=np.int64)
     valid = np.zeros(len(scenes), dtype=np.int64)
-    rk4_ensemble(y0, t, out, substeps, s.max_steps, euler_coefficients(first.moments), first.loads.for_kernel(), status, valid)
+    rk4_ensemble(y0, t, out, substeps, s.max_steps, euler_coefficients(first.moments), first.loads.for_kernel(),
+                 breakpoints(first.loads), status, valid)
     seconds = (time.perf_counter() - started) / len(scenes)
     steps = (t.shape[0] - 1) * substeps
     outcomes = []
