@@ -162,3 +162,10 @@ def test_rk4_keeps_fourth_order_across_load_switches():
     ref = _windowed("dop853", rtol=1e-13, atol=1e-15)
     errors = [np.max(np.abs(_windowed("rk4", step=h).omega - ref.omega)) for h in (0.02, 0.01)]
     assert 13.0 < errors[0] / errors[1] < 19.0, errors
+
+
+def test_rkmk4_keeps_fourth_order_across_load_switches():
+    """The same scene and bound as for rk4: RKMK4 splits its steps at the breakpoints too."""
+    ref = _windowed("dop853", rtol=1e-13, atol=1e-15)
+    errors = [np.max(np.abs(_windowed("rkmk4", step=h).omega - ref.omega)) for h in (0.02, 0.01)]
+    assert 13.0 < errors[0] / errors[1] < 19.0, errors

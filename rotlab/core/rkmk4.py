@@ -70,9 +70,10 @@ def _stage_orientation(y, tmp, ux, uy, uz):
 
 
 @njit(cache=True)
-def rkmk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads):
+def rkmk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, breaks):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, ``substeps`` RKMK4
-    steps per sample interval (contract of ``rotlab.core.rk4``)."""
+    steps per sample interval (contract of ``rotlab.core.rk4``, steps split at the load
+    ``breaks`` in the same way)."""
     forces, terms, tables, table_t, table_v, damping = loads
     n = STATE_SIZE
     k1 = np.empty(n)
@@ -82,47 +83,60 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads):
     tmp = np.empty(n)
     steps = 0
     i = i_start
+    nb = breaks.shape[0]
+    b = np.searchsorted(breaks, times[i_start - 1], side="right")  # next breakpoint
     while i < times.shape[0] and steps + substeps <= max_steps:
         t0 = times[i - 1]
-        h = (times[i] - t0) / substeps
+        h_nominal = (times[i] - t0) / substeps
         for j in range(substeps):
-            t = t0 + j * h
-            # stage 1: θ = 0, dexp⁻¹ = identity
-            rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
-            a1x, a1y, a1z = h * y[4], h * y[5], h * y[6]
-            # stage 2: θ = k1/2
-            ux, uy, uz = 0.5 * a1x, 0.5 * a1y, 0.5 * a1z
-            _stage_orientation(y, tmp, ux, uy, uz)
-            for m in range(4, n):
-                tmp[m] = y[m] + 0.5 * h * k1[m]
-            rhs(t + 0.5 * h, tmp, k2, euler, forces, terms, tables, table_t, table_v, damping)
-            a2x, a2y, a2z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
-            # stage 3: θ = k2/2
-            ux, uy, uz = 0.5 * a2x, 0.5 * a2y, 0.5 * a2z
-            _stage_orientation(y, tmp, ux, uy, uz)
-            for m in range(4, n):
-                tmp[m] = y[m] + 0.5 * h * k2[m]
-            rhs(t + 0.5 * h, tmp, k3, euler, forces, terms, tables, table_t, table_v, damping)
-            a3x, a3y, a3z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
-            # stage 4: θ = k3
-            ux, uy, uz = a3x, a3y, a3z
-            _stage_orientation(y, tmp, ux, uy, uz)
-            for m in range(4, n):
-                tmp[m] = y[m] + h * k3[m]
-            rhs(t + h, tmp, k4, euler, forces, terms, tables, table_t, table_v, damping)
-            a4x, a4y, a4z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
-            # update
-            _stage_orientation(
-                y,
-                tmp,
-                (a1x + 2.0 * (a2x + a3x) + a4x) / 6.0,
-                (a1y + 2.0 * (a2y + a3y) + a4y) / 6.0,
-                (a1z + 2.0 * (a2z + a3z) + a4z) / 6.0,
-            )
-            y[0], y[1], y[2], y[3] = tmp[0], tmp[1], tmp[2], tmp[3]
-            for m in range(4, n):
-                y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
-        steps += substeps
+            t = t0 + j * h_nominal
+            t_end = times[i] if j == substeps - 1 else t0 + (j + 1) * h_nominal
+            while t < t_end:  # one step, or its pieces between breakpoints (see rotlab.core.rk4)
+                while b < nb and breaks[b] <= t:
+                    b += 1
+                end = t_end
+                t_last = t_end
+                if b < nb and breaks[b] <= t_end:
+                    end = breaks[b]
+                    t_last = np.nextafter(end, -np.inf)
+                h = end - t
+                # stage 1: θ = 0, dexp⁻¹ = identity
+                rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
+                a1x, a1y, a1z = h * y[4], h * y[5], h * y[6]
+                # stage 2: θ = k1/2
+                ux, uy, uz = 0.5 * a1x, 0.5 * a1y, 0.5 * a1z
+                _stage_orientation(y, tmp, ux, uy, uz)
+                for m in range(4, n):
+                    tmp[m] = y[m] + 0.5 * h * k1[m]
+                rhs(t + 0.5 * h, tmp, k2, euler, forces, terms, tables, table_t, table_v, damping)
+                a2x, a2y, a2z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
+                # stage 3: θ = k2/2
+                ux, uy, uz = 0.5 * a2x, 0.5 * a2y, 0.5 * a2z
+                _stage_orientation(y, tmp, ux, uy, uz)
+                for m in range(4, n):
+                    tmp[m] = y[m] + 0.5 * h * k2[m]
+                rhs(t + 0.5 * h, tmp, k3, euler, forces, terms, tables, table_t, table_v, damping)
+                a3x, a3y, a3z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
+                # stage 4: θ = k3
+                ux, uy, uz = a3x, a3y, a3z
+                _stage_orientation(y, tmp, ux, uy, uz)
+                for m in range(4, n):
+                    tmp[m] = y[m] + h * k3[m]
+                rhs(t_last, tmp, k4, euler, forces, terms, tables, table_t, table_v, damping)
+                a4x, a4y, a4z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
+                # update
+                _stage_orientation(
+                    y,
+                    tmp,
+                    (a1x + 2.0 * (a2x + a3x) + a4x) / 6.0,
+                    (a1y + 2.0 * (a2y + a3y) + a4y) / 6.0,
+                    (a1z + 2.0 * (a2z + a3z) + a4z) / 6.0,
+                )
+                y[0], y[1], y[2], y[3] = tmp[0], tmp[1], tmp[2], tmp[3]
+                for m in range(4, n):
+                    y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
+                steps += 1
+                t = end
         if not all_finite(y):
             return NONFINITE, i, steps
         out[i, :] = y
