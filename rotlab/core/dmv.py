@@ -208,7 +208,6 @@ def dmv_rotation(h, m1, m2, m3, j1, j2, j3, f1, f2, f3):
             return c1, c2, c3, 1.0 + (c1 * c1 + c2 * c2 + c3 * c3)
         previous = change
     return np.nan, np.nan, np.nan, np.nan  # no solution found: reported as a non-finite state
-    return c1, c2, c3, 1.0 + (c1 * c1 + c2 * c2 + c3 * c3)
 
 
 @njit(cache=True)

@@ -34,6 +34,6 @@ def read_text(path: str | Path, entity: str) -> str:
     """The static TextDocument at ``entity``."""
     for chunk in RrdReader(str(path)).stream().filter(content=entity, is_static=True, components="TextDocument:text"):
         batch = chunk.to_record_batch()
-        column = batch.column(batch.schema.get_field_index("TextDocument:text"))
-        return str(column.to_pylist()[-1][0] if isinstance(column.to_pylist()[-1], list) else column.to_pylist()[-1])
+        last = batch.column(batch.schema.get_field_index("TextDocument:text")).to_pylist()[-1]
+        return str(last[0] if isinstance(last, list) else last)
     raise KeyError(f"no TextDocument at {entity} in {path}")

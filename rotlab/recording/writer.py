@@ -53,10 +53,11 @@ def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_
     check_output_path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     try:
-        rec = rr.RecordingStream("rotlab", recording_id=uuid.uuid4())
-        rec.save(tmp, default_blueprint=layout.blueprint(list(traj.invariants), traj.euler_angles is not None, energy_range(traj)))
         with np.errstate(over="ignore", invalid="ignore"):  # display-only float32 casts of a run that blew up
             views = _views(traj)
+            rec = rr.RecordingStream("rotlab", recording_id=uuid.uuid4())
+            bp = layout.blueprint(list(traj.invariants), traj.euler_angles is not None, energy_range(views.series))
+            rec.save(tmp, default_blueprint=bp)
             _write_static(rec, traj, views)
             _write_series(rec, traj, views, chunk_rows)
         rec.flush()
@@ -71,9 +72,9 @@ def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_
     return path
 
 
-def energy_range(traj: Trajectory, min_span: float = 0.02) -> tuple[float, float] | None:
+def energy_range(all_series: dict[str, tuple[np.ndarray, list[str]]], min_span: float = 0.02) -> tuple[float, float] | None:
     """The energy plot's y range: the data, widened to at least ``min_span`` of the energy scale."""
-    values = series(traj)[layout.ENERGY][0]
+    values = all_series[layout.ENERGY][0]
     finite = values[np.isfinite(values)]
     if not finite.size:
         return None
@@ -129,6 +130,7 @@ class _Views:
     omega_scale: float  # arrow length per rad/s
     L_scale: float  # arrow length per kg·m²/s
     geometry: Geometry
+    series: dict[str, tuple[np.ndarray, list[str]]]  # every time series: see ``series``
 
 
 def _views(traj: Trajectory) -> _Views:
@@ -137,7 +139,7 @@ def _views(traj: Trajectory) -> _Views:
     omega_space = rotate_to_space_array(unit_q, traj.omega)
     omega_scale = _arrow_scale(omega_space, shape.size)
     geometry = scene_geometry(traj, unit_q, omega_space, omega_scale, reach=1.3 * shape.size)
-    return _Views(shape, unit_q, omega_space, omega_scale, _arrow_scale(traj.L_space, shape.size), geometry)
+    return _Views(shape, unit_q, omega_space, omega_scale, _arrow_scale(traj.L_space, shape.size), geometry, series(traj))
 
 
 def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views) -> None:
@@ -176,7 +178,7 @@ def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views) -> N
                                                    labels=["herpolhode"]), static=True)
         rec.log(layout.BODY_POLHODE, rr.LineStrips3D([geo.polhode], colors=[(255, 210, 120)], radii=[0.003 * size],
                                                      labels=["polhode"]), static=True)
-    for entity, (_, names) in series(traj).items():
+    for entity, (_, names) in views.series.items():
         rec.log(entity, rr.SeriesLines(names=names), static=True)
     for entity, scale, label, color in ((layout.OMEGA_ARROW, views.omega_scale, "ω", (240, 150, 30)),
                                         (layout.L_ARROW, views.L_scale, "L", (150, 60, 220))):
@@ -191,7 +193,6 @@ def _write_series(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chun
         layout.OMEGA_ARROW: views.omega_space * views.omega_scale,
         layout.L_ARROW: traj.L_space * views.L_scale,
     }
-    all_series = series(traj)
     for start in range(0, n, chunk_rows):
         rows = slice(start, min(start + chunk_rows, n))
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
@@ -199,7 +200,7 @@ def _write_series(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chun
         rec.send_columns(layout.AXIS_TIP, index, rr.Points3D.columns(positions=views.geometry.axis_tips[rows]))
         for entity, values in vectors.items():
             rec.send_columns(entity, index, rr.Arrows3D.columns(vectors=values[rows]))
-        for entity, (values, _) in all_series.items():
+        for entity, (values, _) in views.series.items():
             rec.send_columns(entity, index, rr.Scalars.columns(scalars=values[rows]))
 
 
