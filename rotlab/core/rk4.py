@@ -19,6 +19,19 @@ from rotlab.core.dynamics import STATE_SIZE, all_finite, rhs
 OK, NONFINITE = 0, 1
 
 
+@njit(cache=True, inline="always")
+def next_piece(t, t_end, breaks, b):
+    """(end, t_last, b) of the step piece starting at t: it ends at the next load breakpoint in
+    (t, t_end] or at t_end; its last stage samples the loads at ``t_last`` (the left limit at a
+    breakpoint); ``b`` indexes the next breakpoint."""
+    nb = breaks.shape[0]
+    while b < nb and breaks[b] <= t:
+        b += 1
+    if b < nb and breaks[b] <= t_end:
+        return breaks[b], np.nextafter(breaks[b], -np.inf), b
+    return t_end, t_end, b
+
+
 @njit(cache=True)
 def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, breaks):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, writing ``out[i]``.
@@ -36,7 +49,6 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, break
     tmp = np.empty(n)
     steps = 0
     i = i_start
-    nb = breaks.shape[0]
     b = np.searchsorted(breaks, times[i_start - 1], side="right")  # next breakpoint
     while i < times.shape[0] and steps + substeps <= max_steps:
         t0 = times[i - 1]
@@ -45,13 +57,7 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, break
             t = t0 + j * h_nominal
             t_end = times[i] if j == substeps - 1 else t0 + (j + 1) * h_nominal
             while t < t_end:  # one step, or its pieces between breakpoints
-                while b < nb and breaks[b] <= t:
-                    b += 1
-                end = t_end
-                t_last = t_end  # where the last stage samples the loads
-                if b < nb and breaks[b] <= t_end:
-                    end = breaks[b]
-                    t_last = np.nextafter(end, -np.inf)  # the left limit at the breakpoint
+                end, t_last, b = next_piece(t, t_end, breaks, b)
                 h = end - t
                 rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
                 for m in range(n):

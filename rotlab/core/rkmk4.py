@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from rotlab.core.dynamics import STATE_SIZE, all_finite, rhs
+from rotlab.core.rk4 import next_piece
 from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
 
 OK, NONFINITE = 0, 1
@@ -83,7 +84,6 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, bre
     tmp = np.empty(n)
     steps = 0
     i = i_start
-    nb = breaks.shape[0]
     b = np.searchsorted(breaks, times[i_start - 1], side="right")  # next breakpoint
     while i < times.shape[0] and steps + substeps <= max_steps:
         t0 = times[i - 1]
@@ -92,13 +92,7 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, bre
             t = t0 + j * h_nominal
             t_end = times[i] if j == substeps - 1 else t0 + (j + 1) * h_nominal
             while t < t_end:  # one step, or its pieces between breakpoints (see rotlab.core.rk4)
-                while b < nb and breaks[b] <= t:
-                    b += 1
-                end = t_end
-                t_last = t_end
-                if b < nb and breaks[b] <= t_end:
-                    end = breaks[b]
-                    t_last = np.nextafter(end, -np.inf)
+                end, t_last, b = next_piece(t, t_end, breaks, b)
                 h = end - t
                 # stage 1: θ = 0, dexp⁻¹ = identity
                 rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
