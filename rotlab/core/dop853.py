@@ -74,6 +74,8 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
     y_new = np.empty(n)
     tmp = np.empty(n)
     F = np.empty((7, n))
+    E5v = np.empty(n)
+    E3v = np.empty(n)
     rhs(t, y, K[0], euler, forces, terms, tables, table_t, table_v, damping)
     counters[2] += 1
     if h <= 0.0:
@@ -101,24 +103,30 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
         t_last = np.nextafter(t_new, -np.inf) if at_break else t_new
         for s in range(1, _STAGES):
             _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping)
-        for m in range(n):
-            acc = 0.0
-            for j in range(_STAGES):
-                acc += _B[j] * K[j, m]
-            y_new[m] = y[m] + h * acc
+        for m in range(STATE_SIZE):
+            y_new[m] = y[m]
+        for j in range(_STAGES):
+            bj = _B[j] * h
+            if bj != 0.0:
+                for m in range(STATE_SIZE):
+                    y_new[m] += bj * K[j, m]
         rhs(t_last, y_new, K[_STAGES], euler, forces, terms, tables, table_t, table_v, damping)
         counters[2] += _STAGES
+        for m in range(STATE_SIZE):
+            E5v[m] = 0.0
+            E3v[m] = 0.0
+        for j in range(_STAGES + 1):
+            c5 = _E5[j]
+            c3 = _E3[j]
+            for m in range(STATE_SIZE):
+                E5v[m] += c5 * K[j, m]
+                E3v[m] += c3 * K[j, m]
         e5 = 0.0
         e3 = 0.0
-        for m in range(n):
+        for m in range(STATE_SIZE):
             sc = atol + rtol * max(abs(y[m]), abs(y_new[m]))
-            a5 = 0.0
-            a3 = 0.0
-            for j in range(_STAGES + 1):
-                a5 += _E5[j] * K[j, m]
-                a3 += _E3[j] * K[j, m]
-            e5 += (a5 / sc) ** 2
-            e3 += (a3 / sc) ** 2
+            e5 += (E5v[m] / sc) ** 2
+            e3 += (E3v[m] / sc) ** 2
         if e5 == 0.0 and e3 == 0.0:
             err = 0.0
         else:
@@ -166,11 +174,13 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
 @njit(cache=True, inline="always")
 def _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping):
     """K[s] ← f(t + c_s h, y + h Σ_j a_sj K[j]), the stage time capped at ``t_last``."""
-    for m in range(y.shape[0]):
-        acc = 0.0
-        for j in range(s):
-            acc += _A[s, j] * K[j, m]
-        tmp[m] = y[m] + h * acc
+    for m in range(STATE_SIZE):
+        tmp[m] = y[m]
+    for j in range(s):
+        a = _A[s, j] * h
+        if a != 0.0:
+            for m in range(STATE_SIZE):
+                tmp[m] += a * K[j, m]
     rhs(min(t + _C[s] * h, t_last), tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
 
 
@@ -182,25 +192,25 @@ def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, euler, loads):
     n = y.shape[0]
     for s in range(_STAGES + 1, 16):
         _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping)
-    for m in range(n):
+    for m in range(STATE_SIZE):
         dy = y_new[m] - y[m]
         F[0, m] = dy
         F[1, m] = h * K[0, m] - dy
         F[2, m] = 2.0 * dy - h * (K[_STAGES, m] + K[0, m])
-        for r in range(4):
-            acc = 0.0
-            for j in range(16):
-                acc += _D[r, j] * K[j, m]
-            F[3 + r, m] = h * acc
+    for r in range(4):
+        for m in range(STATE_SIZE):
+            F[3 + r, m] = 0.0
+        for j in range(16):
+            d = _D[r, j] * h
+            if d != 0.0:
+                for m in range(STATE_SIZE):
+                    F[3 + r, m] += d * K[j, m]
 
 
 @njit(cache=True)
 def _dense_eval(F, y, x, out):
-    """Horner-like evaluation of the interpolant at x = (τ − t)/h ∈ [0, 1]."""
-    n = y.shape[0]
-    for m in range(n):
-        acc = 0.0
-        for k in range(6, -1, -1):
-            acc += F[k, m]
-            acc *= x if (6 - k) % 2 == 0 else (1.0 - x)
-        out[m] = acc + y[m]
+    """The interpolant at x = (τ − t)/h ∈ [0, 1], u = 1 − x:
+    y + x (F₀ + u (F₁ + x (F₂ + u (F₃ + x (F₄ + u (F₅ + x F₆))))))."""
+    u = 1.0 - x
+    for m in range(STATE_SIZE):
+        out[m] = y[m] + x * (F[0, m] + u * (F[1, m] + x * (F[2, m] + u * (F[3, m] + x * (F[4, m] + u * (F[5, m] + x * F[6, m]))))))
