@@ -33,6 +33,7 @@ CASES = {
     "end before start": (VALID_BODY + '[time]\nstart = 2.0\nend = 1.0\n', ["time.end", "must be after start"]),
     "end equals start": (VALID_BODY + '[time]\nstart = 1.0\nend = 1.0\n', ["time.end", "must be after start"]),
     "too many samples": (VALID_BODY + '[time]\nend = 1e9\nsample_rate = 1000\n', ["time.sample_rate", "beyond the limit"]),
+    "span near the float range": (VALID_BODY + '[time]\nend = 1e308\nsample_rate = 100\n', ["time.sample_rate", "beyond the limit"]),
     "toml syntax": (VALID_BODY + '[time\nend = 1.0\n', ["TOML syntax error", "line 3"]),
     "empty file": ("", ["file is empty", "rotlab new"]),
     "whitespace only": ("  \n\n", ["file is empty"]),
