@@ -70,10 +70,10 @@ class FixedStepMethod:
             self._check_windows(scene, settings.step)
             return settings.step
         h = self.step_for_tolerance(scene, t, settings.rtol, order)
-        return min(h, shortest_window(scene.loads) / 4.0)
+        return min(h, scene.cached("shortest_window", lambda: shortest_window(scene.loads)) / 4.0)
 
     def _check_windows(self, scene: Scene, step: float) -> None:
-        window = shortest_window(scene.loads)
+        window = scene.cached("shortest_window", lambda: shortest_window(scene.loads))
         if step > window / 2.0:
             raise InputError(
                 "solver.step",
@@ -101,9 +101,14 @@ class FixedStepMethod:
         times = np.array([t0, t0 + span])
         out = np.empty((2, 8))
         y = initial_state(scene.q0, scene.omega0)
-        self.kernel(y, times, out, 1, steps, steps, euler_coefficients(scene.moments), scene.loads.for_kernel(),
-                    *self.extra_args(scene, order))
+        euler, loads, extra = self.kernel_args(scene, order)
+        self.kernel(y, times, out, 1, steps, steps, euler, loads, *extra)
         return y
+
+    def kernel_args(self, scene: Scene, order: int) -> tuple:
+        """(Euler coefficients, loads for the kernel, the method's extra arguments), once per scene."""
+        return scene.cached(f"{self.name}-{order}", lambda: (euler_coefficients(scene.moments), scene.loads.for_kernel(),
+                                                            tuple(self.extra_args(scene, order))))
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         order = self.order(settings)
@@ -113,9 +118,7 @@ class FixedStepMethod:
         out = np.empty((t.shape[0], 8))
         y = initial_state(scene.q0, scene.omega0)
         out[0] = y
-        euler = euler_coefficients(scene.moments)
-        loads = scene.loads.for_kernel()
-        extra = self.extra_args(scene, order)
+        euler, loads, extra = self.kernel_args(scene, order)
 
         def advance(i: int, budget: int) -> tuple[int, int, int]:
             return self.kernel(y, t, out, i, substeps, max(budget, substeps), euler, loads, *extra)

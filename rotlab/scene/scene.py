@@ -7,7 +7,9 @@ Internally Λ_P = Λ_U ∘ Λ_axes and ω_P = axesᵀ ω_U; every reported quant
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, Callable, TypeVar
 
 import numpy as np
 
@@ -15,6 +17,8 @@ from rotlab.config import models as cfg
 from rotlab.core import quaternion as quat
 from rotlab.scene import inertia
 from rotlab.scene.loads import LoadArrays, active_forces, compile_loads, has_nonconservative, torque_scale
+
+T = TypeVar("T")
 
 SYMMETRY_RTOL = 1e-12  # two moments this close are treated as equal (axisymmetric body)
 
@@ -37,12 +41,20 @@ class Scene:
     field_direction: np.ndarray | None  # unit "up" (−F̂) when all forces are parallel: L·up is invariant
     symmetry_axis: np.ndarray | None  # Lagrange top: unit symmetry axis (principal frame), L·e is invariant
     invariants: tuple[str, ...]
+    _memo: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def cached(self, key: str, build: Callable[[], T]) -> T:
+        """What a method derives from the scene alone (kernel constants), built on first use and
+        kept with the scene: repeated solves of one scene (sweeps, benchmarks) pay for it once."""
+        if key not in self._memo:
+            self._memo[key] = build()
+        return self._memo[key]
 
     @property
     def is_principal(self) -> bool:
         return bool(np.array_equal(self.axes, np.eye(3)))
 
-    @property
+    @cached_property
     def rate_scale(self) -> float:
         """A characteristic angular rate (rad/s) of the scene: max(|ω0|, √(|M|/I_min), load frequencies)."""
         rates = [float(np.linalg.norm(self.omega0)), np.sqrt(torque_scale(self.loads) / float(np.min(self.moments)))]
