@@ -179,9 +179,9 @@ def rotlab_series(scene, t: np.ndarray, options: Options) -> list[Series]:
             continue
         if name == "exact":
             out.append(Series("exact", "rotlab", [{"label": "-"}], _rotlab_runner(method, scene, t, lambda s: Settings())))
-        elif name == "dop853":
+        elif getattr(method, "adaptive", False):  # tolerance-driven: dop853, taylor
             settings = [{"label": f"rtol={r:.0e}", "rtol": r} for r in _tolerances(6, 13, options.quick)]
-            out.append(Series("dop853", "rotlab", settings,
+            out.append(Series(name, "rotlab", settings,
                               _rotlab_runner(method, scene, t, lambda s: Settings(rtol=s["rtol"], atol=s["rtol"] * 1e-2, max_steps=10**10))))
         else:
             orders = tuple(getattr(method, "orders", ())) or (None,)

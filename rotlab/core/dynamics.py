@@ -95,10 +95,10 @@ def _nonconservative_torque(t, y, terms, tables, table_t, table_v, damping):
 
 
 @njit(cache=True)
-def table_value(tt, tv, first, stop, t):
-    """Piecewise-linear interpolation in rows [first, stop) of a table; zero outside."""
+def table_segment(tt, first, stop, t):
+    """The row lo of rows [first, stop) of a table with tt[lo] ≤ t < tt[lo + 1]; −1 outside."""
     if t < tt[first] or t >= tt[stop - 1]:
-        return 0.0, 0.0, 0.0
+        return -1
     lo, hi = first, stop - 1  # bisection: tt[lo] <= t < tt[hi]
     while hi - lo > 1:
         mid = (lo + hi) // 2
@@ -106,6 +106,16 @@ def table_value(tt, tv, first, stop, t):
             lo = mid
         else:
             hi = mid
+    return lo
+
+
+@njit(cache=True)
+def table_value(tt, tv, first, stop, t):
+    """Piecewise-linear interpolation in rows [first, stop) of a table; zero outside."""
+    lo = table_segment(tt, first, stop, t)
+    if lo < 0:
+        return 0.0, 0.0, 0.0
+    hi = lo + 1
     s = (t - tt[lo]) / (tt[hi] - tt[lo])
     return (
         tv[lo, 0] + s * (tv[hi, 0] - tv[lo, 0]),

@@ -8,7 +8,7 @@ import numpy as np
 from rotlab.core.dynamics import euler_coefficients
 from rotlab.core import dop853 as kernel
 from rotlab.methods.base import ProgressCallback, Settings, Solution
-from rotlab.methods.stepping import initial_state, nonfinite_message, run_chunks
+from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
 from rotlab.scene.loads import breakpoints
 from rotlab.scene.scene import Scene
 
@@ -16,6 +16,7 @@ from rotlab.scene.scene import Scene
 class DOP853:
     name = "dop853"
     summary = "adaptive Dormand–Prince 8(5,3) with dense output"
+    adaptive = True  # steps chosen from rtol/atol, not a fixed step
 
     def unsupported(self, scene: Scene) -> str | None:
         return None
@@ -24,10 +25,9 @@ class DOP853:
         out = np.empty((t.shape[0], 8))
         y = initial_state(scene.q0, scene.omega0)
         out[0] = y
-        euler = euler_coefficients(scene.moments)
-        loads = scene.loads.for_kernel()
+        euler, loads, breaks = scene.cached("dop853", lambda: (euler_coefficients(scene.moments), scene.loads.for_kernel(),
+                                                               breakpoints(scene.loads)))
         counters = np.zeros(3, dtype=np.int64)
-        breaks = breakpoints(scene.loads)
         clock = {"t": float(t[0]), "h": 0.0}
 
         def advance(i: int, budget: int) -> tuple[int, int, int]:
@@ -38,9 +38,7 @@ class DOP853:
             return status, i, int(counters[0] + counters[1]) - before
 
         def describe(status: int, i: int) -> str:
-            if status == kernel.STEP_TOO_SMALL:
-                return f"step size fell below the floating-point resolution at t = {clock['t']:.9g} s (the solution is singular or the tolerances too tight)"
-            return nonfinite_message(t, i, out)
+            return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], t, i, out)
 
         solution = run_chunks(t, out, advance, settings.max_steps, progress, describe)
         solution.steps = int(counters[0])

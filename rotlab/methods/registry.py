@@ -16,6 +16,7 @@ METHOD_MODULES: dict[str, str] = {
     "splitting": "rotlab.methods.splitting",
     "dmv": "rotlab.methods.dmv",
     "rkmk4": "rotlab.methods.rkmk4",
+    "taylor": "rotlab.methods.taylor",
     "exact": "rotlab.methods.exact",
 }
 

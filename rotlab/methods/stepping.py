@@ -63,6 +63,14 @@ def _valid_rows(out: np.ndarray, i: int) -> int:
     return int(np.argmin(finite)) if not finite.all() else i
 
 
+def adaptive_failure_message(step_too_small: bool, t_now: float, t: np.ndarray, i: int, state: np.ndarray) -> str:
+    """Why an adaptive method stopped: its step fell below the floating-point resolution at
+    ``t_now``, or the state became non-finite (see ``nonfinite_message``)."""
+    if step_too_small:
+        return f"step size fell below the floating-point resolution at t = {t_now:.9g} s (the solution is singular or the tolerances too tight)"
+    return nonfinite_message(t, i, state)
+
+
 def nonfinite_message(t: np.ndarray, i: int, state: np.ndarray) -> str:
     """Where and why a run blew up, naming the last valid state."""
     last = state[i - 1]

@@ -1,0 +1,245 @@
+"""Adaptive high-order Taylor series method (Jorba & Zou, "A software package for the numerical
+integration of ODEs by means of high-order Taylor methods", Exp. Math. 14, 2005), compiled.
+
+The right-hand side of ``rotlab.core.dynamics`` is a polynomial of degree 2 in y = (Λ, ω) plus
+functions of time alone, so its Taylor coefficients follow by automatic differentiation:
+Cauchy products (u v)^[k] = Σ_{j=0..k} u^[j] v^[k−j] and y^[k+1] = f^[k] / (k + 1), with
+
+    Λ̇ = ½ Λ ∘ (0, ω),   ṗ = (B − C)/A · q r + M₁/A, ...,   Ẇ = M_nc · ω.
+
+Loads (body components, principal frame; products P_ij = λ_i λ_j, i ≤ j, 10 series):
+* a constant space vector v seen in the body: Rᵀ v = v + L(P, v), L bilinear (``rotate_quadratic``);
+  so every constant force gives p × Rᵀ F = p × F + (p × L(·, F)) P: a 3 × 10 matrix (``force_map``);
+* body-frame time functions b(τ) (harmonic terms, table segments): their own series;
+* space-frame time functions s(τ): (Rᵀ s)^[k] = s^[k] + Σ_j L(P^[j], s^[k−j]);
+* damping −d ω.
+Windows and table knots are breakpoints: steps end there, so each step sees one smooth load.
+
+Order and step (Jorba & Zou §3.2): N = ⌈−½ ln ε⌉ + 1 with ε = rtol (or the order asked for);
+h = e^(−0.7/(N−1)) · min over j ∈ {N−1, N} and the groups g ∈ {Λ, ω} of
+(ε_g / ‖y_g^[j]‖∞)^(1/j),  ε_g = atol + rtol ‖y_g‖∞.  No step is rejected.
+Dense output: the step's own polynomial, evaluated at the samples in (t, t + h] by Horner.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from rotlab.core.dynamics import STATE_SIZE, all_finite, table_segment
+
+OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
+N_PRODUCTS = 10  # λ_i λ_j, i ≤ j: (00, 01, 02, 03, 11, 12, 13, 22, 23, 33)
+
+
+def default_order(rtol: float) -> int:
+    """Jorba & Zou's order for tolerance ε: ⌈−½ ln ε⌉ + 1 (at least 4)."""
+    return max(4, math.ceil(-0.5 * math.log(rtol)) + 1)
+
+
+@njit(cache=True, inline="always")
+def rotate_quadratic(P, o, vx, vy, vz):
+    """L(P, v): the part of Rᵀ v = v − 2 λ₀ (λ × v) + 2 λ × (λ × v) that is quadratic in Λ,
+    written in the products P[o + 0..9] (λ = (λ₁, λ₂, λ₃)); linear in P and in v."""
+    p01, p02, p03 = P[o + 1], P[o + 2], P[o + 3]
+    p11, p12, p13, p22, p23, p33 = P[o + 4], P[o + 5], P[o + 6], P[o + 7], P[o + 8], P[o + 9]
+    n2 = p11 + p22 + p33
+    return (
+        -2.0 * (p02 * vz - p03 * vy) + 2.0 * (p11 * vx + p12 * vy + p13 * vz - vx * n2),
+        -2.0 * (p03 * vx - p01 * vz) + 2.0 * (p12 * vx + p22 * vy + p23 * vz - vy * n2),
+        -2.0 * (p01 * vy - p02 * vx) + 2.0 * (p13 * vx + p23 * vy + p33 * vz - vz * n2),
+    )
+
+
+def force_map(forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(c₀, T) with Σ_k p_k × Rᵀ F_k = c₀ + T P for constant space forces (rows [p, F])."""
+    c0 = np.zeros(3)
+    T = np.zeros((3, N_PRODUCTS))
+    for row in forces:
+        arm, force = row[:3], row[3:]
+        c0 += np.cross(arm, force)
+        for m in range(N_PRODUCTS):
+            unit = np.zeros(N_PRODUCTS)
+            unit[m] = 1.0
+            T[:, m] += np.cross(arm, np.array(rotate_quadratic(unit, 0, force[0], force[1], force[2])))
+    return c0, T
+
+
+@njit(cache=True)
+def load_series(t, order, terms, tables, table_t, table_v, body, space):
+    """Taylor coefficients at t of the time-dependent torques acting on the step from t:
+    ``body`` / ``space`` (order + 1, 3) for the body-frame / space-frame ones.
+    offset + a sin(w τ + φ): a w^k / k! · sin(w t + φ + kπ/2);  a table segment: value, slope."""
+    body[:, :] = 0.0
+    space[:, :] = 0.0
+    for k in range(terms.shape[0]):
+        if not (terms[k, 1] <= t < terms[k, 2]):
+            continue
+        target = space if terms[k, 0] != 0.0 else body
+        for c in range(3):
+            target[0, c] += terms[k, 3 + c]
+        w = terms[k, 9]
+        if w != 0.0:
+            angle = w * t + terms[k, 10]
+            s, co = math.sin(angle), math.cos(angle)
+            scale = 1.0
+            for j in range(order + 1):
+                phase = (s, co, -s, -co)[j % 4]  # sin(angle + jπ/2)
+                for c in range(3):
+                    target[j, c] += terms[k, 6 + c] * scale * phase
+                scale *= w / (j + 1)
+    for k in range(tables.shape[0]):
+        if not (tables[k, 1] <= t < tables[k, 2]):
+            continue
+        lo = table_segment(table_t, int(tables[k, 3]), int(tables[k, 4]), t)
+        if lo < 0:
+            continue
+        target = space if tables[k, 0] != 0.0 else body
+        dt = table_t[lo + 1] - table_t[lo]
+        for c in range(3):
+            slope = (table_v[lo + 1, c] - table_v[lo, c]) / dt
+            target[0, c] += table_v[lo, c] + slope * (t - table_t[lo])
+            if order >= 1:
+                target[1, c] += slope
+
+
+@njit(cache=True)
+def series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has_space, has_work):
+    """Fill X[1..order] (Taylor coefficients of the state, X[0] given) and M[0..order−1] (the
+    non-conservative torque, body components).  P holds the products' coefficients."""
+    for k in range(order):
+        a0 = a1 = a2 = a3 = 0.0
+        e0 = e1 = e2 = 0.0
+        for j in range(k + 1):
+            l0, l1, l2, l3 = X[j, 0], X[j, 1], X[j, 2], X[j, 3]
+            p, q, r = X[k - j, 4], X[k - j, 5], X[k - j, 6]
+            a0 -= l1 * p + l2 * q + l3 * r
+            a1 += l0 * p + l2 * r - l3 * q
+            a2 += l0 * q + l3 * p - l1 * r
+            a3 += l0 * r + l1 * q - l2 * p
+            e0 += X[j, 5] * r
+            e1 += X[j, 6] * p
+            e2 += X[j, 4] * q
+        tx = ty = tz = 0.0
+        if has_products:
+            o = N_PRODUCTS * k
+            for m in range(N_PRODUCTS):
+                P[o + m] = 0.0
+            for j in range(k + 1):
+                l0, l1, l2, l3 = X[j, 0], X[j, 1], X[j, 2], X[j, 3]
+                u0, u1, u2, u3 = X[k - j, 0], X[k - j, 1], X[k - j, 2], X[k - j, 3]
+                P[o + 0] += l0 * u0
+                P[o + 1] += l0 * u1
+                P[o + 2] += l0 * u2
+                P[o + 3] += l0 * u3
+                P[o + 4] += l1 * u1
+                P[o + 5] += l1 * u2
+                P[o + 6] += l1 * u3
+                P[o + 7] += l2 * u2
+                P[o + 8] += l2 * u3
+                P[o + 9] += l3 * u3
+            for m in range(N_PRODUCTS):
+                tx += T[0, m] * P[o + m]
+                ty += T[1, m] * P[o + m]
+                tz += T[2, m] * P[o + m]
+            if k == 0:
+                tx += c0[0]
+                ty += c0[1]
+                tz += c0[2]
+        nx = body[k, 0] - damping * X[k, 4]
+        ny = body[k, 1] - damping * X[k, 5]
+        nz = body[k, 2] - damping * X[k, 6]
+        if has_space:
+            nx += space[k, 0]
+            ny += space[k, 1]
+            nz += space[k, 2]
+            for j in range(k + 1):
+                lx, ly, lz = rotate_quadratic(P, N_PRODUCTS * j, space[k - j, 0], space[k - j, 1], space[k - j, 2])
+                nx += lx
+                ny += ly
+                nz += lz
+        M[k, 0], M[k, 1], M[k, 2] = nx, ny, nz
+        work = 0.0
+        if has_work:
+            for j in range(k + 1):
+                work += M[j, 0] * X[k - j, 4] + M[j, 1] * X[k - j, 5] + M[j, 2] * X[k - j, 6]
+        inv = 1.0 / (k + 1)
+        X[k + 1, 0] = 0.5 * inv * a0
+        X[k + 1, 1] = 0.5 * inv * a1
+        X[k + 1, 2] = 0.5 * inv * a2
+        X[k + 1, 3] = 0.5 * inv * a3
+        X[k + 1, 4] = inv * (euler[0] * e0 + euler[3] * (tx + nx))
+        X[k + 1, 5] = inv * (euler[1] * e1 + euler[4] * (ty + ny))
+        X[k + 1, 6] = inv * (euler[2] * e2 + euler[5] * (tz + nz))
+        X[k + 1, 7] = inv * work
+
+
+@njit(cache=True)
+def step_size(X, order, y, rtol, atol):
+    """Jorba & Zou's step (module docstring); inf when the series terminates (all zero)."""
+    lam = max(abs(y[0]), abs(y[1]), abs(y[2]), abs(y[3]))
+    omega = max(abs(y[4]), abs(y[5]), abs(y[6]))
+    eps_lam = atol + rtol * lam
+    eps_omega = atol + rtol * omega
+    rho = np.inf
+    for j in range(order - 1, order + 1):
+        c_lam = max(abs(X[j, 0]), abs(X[j, 1]), abs(X[j, 2]), abs(X[j, 3]))
+        c_omega = max(abs(X[j, 4]), abs(X[j, 5]), abs(X[j, 6]))
+        if c_lam > 0.0:
+            rho = min(rho, (eps_lam / c_lam) ** (1.0 / j))
+        if c_omega > 0.0:
+            rho = min(rho, (eps_omega / c_omega) ** (1.0 / j))
+    return rho * math.exp(-0.7 / (order - 1))
+
+
+@njit(cache=True)
+def evaluate(X, order, s, out):
+    """out ← Σ_k X[k] s^k (Horner, all components together)."""
+    for m in range(STATE_SIZE):
+        out[m] = X[order, m]
+    for k in range(order - 1, -1, -1):
+        for m in range(STATE_SIZE):
+            out[m] = out[m] * s + X[k, m]
+
+
+@njit(cache=True)
+def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, euler, c0, T, loads, breaks, flags, counters):
+    """Advance from (t, y), writing ``out[i]`` for every sample passed, until all samples are
+    written or ``max_steps`` steps were taken; steps end at every time in ``breaks`` (sorted).
+    ``flags`` = (has_products, has_space, has_work); ``counters`` (int64[1]) += steps.
+    Returns (status, next sample index, t)."""
+    _, terms, tables, table_t, table_v, damping = loads
+    has_products, has_space, has_work = flags
+    X = np.zeros((order + 1, STATE_SIZE))
+    P = np.zeros(N_PRODUCTS * (order + 1))
+    M = np.zeros((order + 1, 3))
+    body = np.zeros((order + 1, 3))
+    space = np.zeros((order + 1, 3))
+    t_end = times[times.shape[0] - 1]
+    b = np.searchsorted(breaks, t, side="right")
+    steps = 0
+    while i < times.shape[0] and steps < max_steps:
+        for m in range(STATE_SIZE):
+            X[0, m] = y[m]
+        load_series(t, order, terms, tables, table_t, table_v, body, space)
+        series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has_space, has_work)
+        h = step_size(X, order, y, rtol, atol)
+        while b < breaks.shape[0] and breaks[b] <= t:
+            b += 1
+        limit = breaks[b] if b < breaks.shape[0] and breaks[b] < t_end else t_end
+        t_new = min(t + h, limit)
+        if t_new - t < 10.0 * (np.nextafter(t, np.inf) - t):
+            return STEP_TOO_SMALL, i, t
+        h = t_new - t
+        while i < times.shape[0] and times[i] <= t_new:
+            evaluate(X, order, times[i] - t, out[i])
+            i += 1
+        evaluate(X, order, h, y)
+        t = t_new
+        steps += 1
+        counters[0] += 1
+        if not all_finite(y):
+            return NONFINITE, i, t
+    return OK, i, t

@@ -1,0 +1,73 @@
+"""``taylor``: adaptive high-order Taylor series (Jorba–Zou order and step control), every load;
+the order from ``solver.rtol`` (⌈−½ ln rtol⌉ + 1) unless ``solver.order`` gives it.  The dense
+output is the series itself, so many samples per step cost only a polynomial evaluation each.
+See ``rotlab.core.taylor``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rotlab.core import taylor as kernel
+from rotlab.core.dynamics import euler_coefficients
+from rotlab.methods.base import ProgressCallback, Settings, Solution
+from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
+from rotlab.scene.loads import SPACE, active_forces, breakpoints, has_nonconservative
+from rotlab.scene.scene import Scene
+
+MIN_ORDER, MAX_ORDER = 4, 40
+
+
+class Taylor:
+    name = "taylor"
+    summary = "adaptive high-order Taylor series (Jorba–Zou), any loads, dense output from the series"
+    adaptive = True  # steps chosen from rtol/atol, not a fixed step
+
+    def unsupported(self, scene: Scene) -> str | None:
+        return None
+
+    def order_for(self, settings: Settings) -> int:
+        if settings.order is not None:
+            return settings.order
+        return kernel.default_order(settings.rtol)
+
+    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+        order = self.order_for(settings)
+        if not MIN_ORDER <= order <= MAX_ORDER:
+            from rotlab.errors import InputError
+
+            raise InputError("solver.order", f"taylor takes orders {MIN_ORDER} to {MAX_ORDER}, not {order}")
+        euler, c0, T, loads, breaks, flags = scene.cached("taylor", lambda: kernel_constants(scene))
+        out = np.empty((t.shape[0], 8))
+        y = initial_state(scene.q0, scene.omega0)
+        out[0] = y
+        counters = np.zeros(1, dtype=np.int64)
+        clock = {"t": float(t[0])}
+
+        def advance(i: int, budget: int) -> tuple[int, int, int]:
+            before = int(counters[0])
+            status, i, clock["t"] = kernel.taylor_advance(y, clock["t"], t, out, i, order, settings.rtol, settings.atol, budget,
+                                                          euler, c0, T, loads, breaks, flags, counters)
+            return status, i, int(counters[0]) - before
+
+        def describe(status: int, i: int) -> str:
+            return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], t, i, out)
+
+        solution = run_chunks(t, out, advance, settings.max_steps, progress, describe)
+        solution.steps = int(counters[0])
+        solution.details = {"order": order, "rtol": settings.rtol, "atol": settings.atol}
+        return solution
+
+
+def kernel_constants(scene: Scene) -> tuple:
+    """The kernel's per-scene arguments: Euler coefficients, the force map (c₀, T), the loads,
+    breakpoints and (has_products, has_space, has_work)."""
+    loads = scene.loads
+    forces = active_forces(loads)
+    c0, T = kernel.force_map(forces)
+    has_space = bool(np.any(loads.terms[:, 0] == SPACE) or np.any(loads.tables[:, 0] == SPACE))
+    flags = (len(forces) > 0 or has_space, has_space, has_nonconservative(loads))
+    return euler_coefficients(scene.moments), c0, T, loads, breakpoints(loads), flags
+
+
+METHOD = Taylor()
