@@ -112,6 +112,7 @@ def series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has
     for k in range(order):
         a0 = a1 = a2 = a3 = 0.0
         e0 = e1 = e2 = 0.0
+        s00 = s01 = s02 = s03 = s11 = s12 = s13 = s22 = s23 = s33 = 0.0
         for j in range(k + 1):
             l0, l1, l2, l3 = X[j, 0], X[j, 1], X[j, 2], X[j, 3]
             p, q, r = X[k - j, 4], X[k - j, 5], X[k - j, 6]
@@ -122,24 +123,23 @@ def series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has
             e0 += X[j, 5] * r
             e1 += X[j, 6] * p
             e2 += X[j, 4] * q
+            if has_products:
+                u0, u1, u2, u3 = X[k - j, 0], X[k - j, 1], X[k - j, 2], X[k - j, 3]
+                s00 += l0 * u0
+                s01 += l0 * u1
+                s02 += l0 * u2
+                s03 += l0 * u3
+                s11 += l1 * u1
+                s12 += l1 * u2
+                s13 += l1 * u3
+                s22 += l2 * u2
+                s23 += l2 * u3
+                s33 += l3 * u3
         tx = ty = tz = 0.0
         if has_products:
             o = N_PRODUCTS * k
-            for m in range(N_PRODUCTS):
-                P[o + m] = 0.0
-            for j in range(k + 1):
-                l0, l1, l2, l3 = X[j, 0], X[j, 1], X[j, 2], X[j, 3]
-                u0, u1, u2, u3 = X[k - j, 0], X[k - j, 1], X[k - j, 2], X[k - j, 3]
-                P[o + 0] += l0 * u0
-                P[o + 1] += l0 * u1
-                P[o + 2] += l0 * u2
-                P[o + 3] += l0 * u3
-                P[o + 4] += l1 * u1
-                P[o + 5] += l1 * u2
-                P[o + 6] += l1 * u3
-                P[o + 7] += l2 * u2
-                P[o + 8] += l2 * u3
-                P[o + 9] += l3 * u3
+            P[o], P[o + 1], P[o + 2], P[o + 3], P[o + 4] = s00, s01, s02, s03, s11
+            P[o + 5], P[o + 6], P[o + 7], P[o + 8], P[o + 9] = s12, s13, s22, s23, s33
             for m in range(N_PRODUCTS):
                 tx += T[0, m] * P[o + m]
                 ty += T[1, m] * P[o + m]
