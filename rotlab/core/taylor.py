@@ -187,10 +187,9 @@ def step_size(X, order, y, rtol, atol):
     for j in range(order - 1, order + 1):
         c_lam = max(abs(X[j, 0]), abs(X[j, 1]), abs(X[j, 2]), abs(X[j, 3]))
         c_omega = max(abs(X[j, 4]), abs(X[j, 5]), abs(X[j, 6]))
-        if c_lam > 0.0:
-            rho = min(rho, (eps_lam / c_lam) ** (1.0 / j))
-        if c_omega > 0.0:
-            rho = min(rho, (eps_omega / c_omega) ** (1.0 / j))
+        ratio = min(eps_lam / c_lam if c_lam > 0.0 else np.inf, eps_omega / c_omega if c_omega > 0.0 else np.inf)
+        if ratio < np.inf:  # x ↦ x^(1/j) is increasing: one power per order
+            rho = min(rho, ratio ** (1.0 / j))
     return rho * math.exp(-0.7 / (order - 1))
 
 
@@ -218,12 +217,14 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, euler, c0,
     body = np.zeros((order + 1, 3))
     space = np.zeros((order + 1, 3))
     t_end = times[times.shape[0] - 1]
+    has_time_loads = terms.shape[0] > 0 or tables.shape[0] > 0  # otherwise body, space stay zero
     b = np.searchsorted(breaks, t, side="right")
     steps = 0
     while i < times.shape[0] and steps < max_steps:
         for m in range(STATE_SIZE):
             X[0, m] = y[m]
-        load_series(t, order, terms, tables, table_t, table_v, body, space)
+        if has_time_loads:
+            load_series(t, order, terms, tables, table_t, table_v, body, space)
         series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has_space, has_work)
         h = step_size(X, order, y, rtol, atol)
         while b < breaks.shape[0] and breaks[b] <= t:
