@@ -10,6 +10,7 @@ import numpy as np
 
 from rotlab.core import taylor as kernel
 from rotlab.core.dynamics import euler_coefficients
+from rotlab.errors import InputError
 from rotlab.methods.base import ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
 from rotlab.scene.loads import SPACE, active_forces, breakpoints, has_nonconservative
@@ -34,8 +35,6 @@ class Taylor:
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         order = self.order_for(settings)
         if not MIN_ORDER <= order <= MAX_ORDER:
-            from rotlab.errors import InputError
-
             raise InputError("solver.order", f"taylor takes orders {MIN_ORDER} to {MAX_ORDER}, not {order}")
         euler, c0, T, loads, breaks, flags = scene.cached("taylor", lambda: kernel_constants(scene))
         out = np.empty((t.shape[0], 8))
