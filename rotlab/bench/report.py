@@ -139,14 +139,15 @@ def write_plots(directory: Path, records: list[Record], titles: dict[str, str]) 
             continue
         fig, ax = plt.subplots(figsize=(8.5, 6.0))
         series = list(dict.fromkeys(r.series for r in rs))
-        ours = plt.get_cmap("tab20")
+        tab20 = plt.get_cmap("tab20")
+        ours = [tab20(i) for i in (*range(0, 20, 2), *range(1, 20, 2)) if i not in (14, 15)]  # no greys: they are scipy's
         theirs = ["#555555", "#b8860b", "#8b0000", "#4b0082", "#000000"]
         k_ours = k_theirs = 0
         for name in series:
             pts = [r for r in rs if r.series == name]
             side = pts[0].side
             if side == "rotlab":
-                color = ours((2 * k_ours) % 20 + (k_ours // 10) % 2)
+                color = ours[k_ours % len(ours)]
                 k_ours += 1
             else:
                 color = theirs[k_theirs % len(theirs)]
