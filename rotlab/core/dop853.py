@@ -189,7 +189,6 @@ def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, euler, loads):
     """Stages 14–16 and the interpolant coefficients F (7 × n) of the step [t, t + h]
     (stage times capped at ``t_last``, the left limit at a breakpoint)."""
     forces, terms, tables, table_t, table_v, damping = loads
-    n = y.shape[0]
     for s in range(_STAGES + 1, 16):
         _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping)
     for m in range(STATE_SIZE):

@@ -7,16 +7,23 @@ Internally Λ_P = Λ_U ∘ Λ_axes and ω_P = axesᵀ ω_U; every reported quant
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable, TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
 from rotlab.config import models as cfg
 from rotlab.core import quaternion as quat
 from rotlab.scene import inertia
-from rotlab.scene.loads import LoadArrays, active_forces, compile_loads, has_nonconservative, torque_scale
+from rotlab.scene.loads import (
+    LoadArrays,
+    active_forces,
+    compile_loads,
+    has_nonconservative,
+    torque_scale,
+)
 
 T = TypeVar("T")
 
