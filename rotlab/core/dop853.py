@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, rhs
+from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -90,11 +90,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
         if h < min_step:
             return STEP_TOO_SMALL, i, t, h
         t_new = t + h
-        limit = t_end
-        while b < breaks.shape[0] and breaks[b] <= t:
-            b += 1
-        if b < breaks.shape[0] and breaks[b] < limit:
-            limit = breaks[b]
+        limit, _, b = next_piece(t, t_end, breaks, b)
         if t_new > limit:
             t_new = limit
         h = t_new - t

@@ -142,6 +142,19 @@ def rhs(t, y, dy, euler, forces, terms, tables, table_t, table_v, damping):
     dy[7] = nx * p + ny * q + nz * r
 
 
+@njit(cache=True, inline="always")
+def next_piece(t, t_end, breaks, b):
+    """(end, t_last, b) of the step piece starting at t: it ends at the next load breakpoint
+    (``rotlab.scene.loads.breakpoints``) in (t, t_end] or at t_end; its last stage samples the
+    loads at ``t_last`` (the left limit at a breakpoint); ``b`` indexes the next breakpoint."""
+    nb = breaks.shape[0]
+    while b < nb and breaks[b] <= t:
+        b += 1
+    if b < nb and breaks[b] <= t_end:
+        return breaks[b], np.nextafter(breaks[b], -np.inf), b
+    return t_end, t_end, b
+
+
 @njit(cache=True)
 def all_finite(y):
     for k in range(y.shape[0]):

@@ -14,22 +14,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, rhs
+from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs
 
 OK, NONFINITE = 0, 1
-
-
-@njit(cache=True, inline="always")
-def next_piece(t, t_end, breaks, b):
-    """(end, t_last, b) of the step piece starting at t: it ends at the next load breakpoint in
-    (t, t_end] or at t_end; its last stage samples the loads at ``t_last`` (the left limit at a
-    breakpoint); ``b`` indexes the next breakpoint."""
-    nb = breaks.shape[0]
-    while b < nb and breaks[b] <= t:
-        b += 1
-    if b < nb and breaks[b] <= t_end:
-        return breaks[b], np.nextafter(breaks[b], -np.inf), b
-    return t_end, t_end, b
 
 
 @njit(cache=True)

@@ -22,8 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, rhs
-from rotlab.core.rk4 import next_piece
+from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs
 from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
 
 OK, NONFINITE = 0, 1

@@ -28,7 +28,7 @@ import math
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, table_segment
+from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, table_segment
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 N_PRODUCTS = 10  # λ_i λ_j, i ≤ j: (00, 01, 02, 03, 11, 12, 13, 22, 23, 33)
@@ -227,9 +227,7 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, euler, c0,
             load_series(t, order, terms, tables, table_t, table_v, body, space)
         series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has_space, has_work)
         h = step_size(X, order, y, rtol, atol)
-        while b < breaks.shape[0] and breaks[b] <= t:
-            b += 1
-        limit = breaks[b] if b < breaks.shape[0] and breaks[b] < t_end else t_end
+        limit, _, b = next_piece(t, t_end, breaks, b)
         t_new = min(t + h, limit)
         if t_new - t < 10.0 * (np.nextafter(t, np.inf) - t):
             return STEP_TOO_SMALL, i, t

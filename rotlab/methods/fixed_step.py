@@ -24,7 +24,6 @@ from rotlab.core.dynamics import euler_coefficients
 from rotlab.errors import InputError
 from rotlab.methods.base import ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import initial_state, nonfinite_message, run_chunks
-from rotlab.scene.loads import shortest_window
 from rotlab.scene.scene import Scene
 
 PROBE_RADIANS = 20.0  # probe span: about 20 rad of the scene's characteristic rotation
@@ -70,10 +69,10 @@ class FixedStepMethod:
             self._check_windows(scene, settings.step)
             return settings.step
         h = self.step_for_tolerance(scene, t, settings.rtol, order)
-        return min(h, scene.cached("shortest_window", lambda: shortest_window(scene.loads)) / 4.0)
+        return min(h, scene.shortest_window / 4.0)
 
     def _check_windows(self, scene: Scene, step: float) -> None:
-        window = scene.cached("shortest_window", lambda: shortest_window(scene.loads))
+        window = scene.shortest_window
         if step > window / 2.0:
             raise InputError(
                 "solver.step",

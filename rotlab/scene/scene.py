@@ -22,6 +22,7 @@ from rotlab.scene.loads import (
     active_forces,
     compile_loads,
     has_nonconservative,
+    shortest_window,
     torque_scale,
 )
 
@@ -69,6 +70,11 @@ class Scene:
             rates.append(float(np.max(np.abs(self.loads.terms[:, 9]))))
         rates.append(self.loads.damping / float(np.min(self.moments)))
         return max(rates)
+
+    @cached_property
+    def shortest_window(self) -> float:
+        """The shortest time a windowed load or a table segment acts, s (inf when none)."""
+        return shortest_window(self.loads)
 
 
 def initial_quaternion(initial: cfg.Initial) -> np.ndarray:
