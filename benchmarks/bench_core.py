@@ -17,7 +17,6 @@ import numpy as np
 
 import rotlab
 from rotlab.core import dop853, rk4
-from rotlab.core.dynamics import euler_coefficients
 from rotlab.methods.stepping import initial_state
 from rotlab.recording.writer import write_recording
 from rotlab.scene.scene import build_scene
@@ -40,8 +39,7 @@ def main() -> None:
     args = parser.parse_args()
 
     scene = build_scene(rotlab.load(ROOT / "configs" / "lagrange.toml"))
-    euler = euler_coefficients(scene.moments)
-    loads = scene.loads.for_kernel()
+    model = scene.model
     rows = []
 
     # RK4: 10^6 steps of the Lagrange top (1000 samples × 1000 steps)
@@ -51,7 +49,7 @@ def main() -> None:
 
     def rk4_run():
         y = initial_state(scene.q0, scene.omega0)
-        rk4.rk4_advance(y, t, out, 1, 1000, n_steps, euler, loads, np.zeros(0))
+        rk4.rk4_advance(y, t, out, 1, 1000, n_steps, model)
 
     started = time.perf_counter()
     rk4_run()
@@ -65,7 +63,7 @@ def main() -> None:
     def dop_run():
         y = initial_state(scene.q0, scene.omega0)
         counters[:] = 0
-        dop853.dop853_advance(y, 0.0, 0.0, t, out, 1, 10.0, 1e-10, 1e-12, 10**9, euler, loads, counters, np.zeros(0))
+        dop853.dop853_advance(y, 0.0, 0.0, t, out, 1, 10.0, 1e-10, 1e-12, 10**9, model, counters)
 
     started = time.perf_counter()
     dop_run()

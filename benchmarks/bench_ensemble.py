@@ -13,7 +13,6 @@ import numba
 import numpy as np
 
 from rotlab.config import parse_scenario
-from rotlab.core.dynamics import euler_coefficients
 from rotlab.core.ensemble import rk4_ensemble
 from rotlab.core.rk4 import rk4_advance
 from rotlab.scene.scene import build_scene
@@ -27,7 +26,7 @@ def main() -> None:
     args = parser.parse_args()
 
     scene = build_scene(parse_scenario({"body": {"principal_moments": [1.0, 2.0, 2.5]}, "time": {"end": 1.0}}))
-    euler, loads = euler_coefficients(scene.moments), scene.loads.for_kernel()
+    model = scene.model
     rng = np.random.default_rng(0)
     y0 = np.zeros((args.bodies, 8))
     y0[:, 0] = 1.0
@@ -41,12 +40,12 @@ def main() -> None:
     body_steps = args.bodies * substeps * (samples - 1)
 
     def ensemble():
-        rk4_ensemble(y0, times, out, substeps, 10**12, euler, loads, np.zeros(0), status, valid)
+        rk4_ensemble(y0, times, out, substeps, 10**12, model, status, valid)
 
     def serial():
         for b in range(args.bodies):
             y = y0[b].copy()
-            rk4_advance(y, times, out[b], 1, substeps, 10**12, euler, loads, np.zeros(0))
+            rk4_advance(y, times, out[b], 1, substeps, 10**12, model)
 
     rows = []
     for name, fn in (("rk4 ensemble (prange)", ensemble), ("rk4 single-body kernel, Python loop", serial)):

@@ -21,7 +21,6 @@ import numpy as np
 import rotlab
 from rotlab.config import parse_scenario
 from rotlab.core.dmv import ORDERS, dmv_advance, modified_coefficients
-from rotlab.core.dynamics import euler_coefficients
 from rotlab.core.rk4 import rk4_advance
 from rotlab.core.rkmk4 import rkmk4_advance
 from rotlab.core.splitting import splitting_advance
@@ -51,15 +50,14 @@ def kernels(scene):
 
 
 def ns_per_step(scene, kernel, extra, steps: int, repeats: int) -> tuple[float, float]:
-    euler = euler_coefficients(scene.moments)
-    loads = scene.loads.for_kernel()
+    model = scene.model
     t = np.linspace(0.0, steps * 1e-3, 1001)  # h = 1e-3
     out = np.empty((t.size, 8))
     substeps = steps // 1000
 
     def run():
         y = initial_state(scene.q0, scene.omega0)
-        kernel(y, t, out, 1, substeps, 10 * steps, euler, loads, *extra)
+        kernel(y, t, out, 1, substeps, 10 * steps, model, *extra)
 
     run()  # compile (or load from the cache)
     times = []

@@ -4,12 +4,23 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["__version__", "load", "simulate"]
+__all__ = ["InputError", "Interrupted", "RunFailure", "Scenario", "Trajectory", "__version__", "load", "parse_scenario", "simulate"]
+
+_LAZY = {
+    "load": "rotlab.api",
+    "simulate": "rotlab.api",
+    "parse_scenario": "rotlab.config.loader",
+    "Scenario": "rotlab.config.models",
+    "Trajectory": "rotlab.trajectory",
+    "InputError": "rotlab.errors",
+    "RunFailure": "rotlab.errors",
+    "Interrupted": "rotlab.errors",
+}
 
 
 def __getattr__(name: str):  # lazy: `import rotlab` stays light for the CLI
-    if name in ("load", "simulate"):
-        from rotlab import api
+    if name in _LAZY:
+        import importlib
 
-        return getattr(api, name)
-    raise AttributeError(name)
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'rotlab' has no attribute '{name}'")

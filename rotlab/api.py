@@ -9,55 +9,167 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
-from rotlab.config import load_scenario
+from rotlab.config import load_scenario, parse_scenario
 from rotlab.config.models import Scenario
+from rotlab.errors import Interrupted, RunFailure
 from rotlab.methods.base import ProgressCallback, Settings
 from rotlab.methods.choose import choose_method
+from rotlab.methods.compile_time import compile_clock
 from rotlab.scene.scene import Scene, build_scene
-from rotlab.trajectory import RunStats, Trajectory, build_trajectory
+from rotlab.trajectory import RunStats, RunSummary, Trajectory, build_trajectory
+
+if TYPE_CHECKING:
+    from rotlab.progress import StreamProgress
+    from rotlab.recording.sink import RecordingSink
 
 
-def load(path: str | Path, *, method: str | None = None, duration: float | None = None) -> Scenario:
-    """Read and validate a scenario file; ``method`` and ``duration`` (s) override the file."""
-    overrides: dict[tuple[str, ...], Any] = {}
+def load(
+    path: str | Path, *, method: str | None = None, duration: float | None = None, overrides: Mapping[str, Any] | None = None
+) -> Scenario:
+    """Read and validate a scenario file.  ``method``, ``duration`` (s: end = start + duration)
+    and ``overrides`` ({"initial.omega": [0, 0, 50], "loads[0].value[2]": 1.0}) change the file's
+    values and are validated like them."""
+    changes = dict(overrides or {})
     if method is not None:
-        overrides[("solver", "method")] = method
-    if duration is not None:
-        start = load_scenario(path).time.start
-        overrides[("time", "end")] = start + duration
-    return load_scenario(path, overrides)
+        changes["solver.method"] = method
+    return load_scenario(path, changes, duration=duration)
 
 
-def simulate(scenario: Scenario | str | Path, *, method: str | None = None, progress: ProgressCallback | None = None) -> Trajectory:
-    """Run a scenario (object or file path) and return its ``Trajectory`` (user's frames)."""
+def simulate(
+    scenario: Scenario | str | Path,
+    *,
+    method: str | None = None,
+    duration: float | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    check: bool = True,
+    progress: ProgressCallback | None = None,
+    torque: Callable | None = None,
+    frame: str = "body",
+) -> Trajectory:
+    """Run a scenario (object or file path) and return its ``Trajectory`` (user's frames).
+
+    ``method``, ``duration`` (s) and ``overrides`` ({"initial.omega[2]": 50.0, ...}) change the
+    scenario and are validated as in the file (``InputError`` naming the key).  A run that
+    stops early (non-finite state, step budget, Ctrl-C) raises ``RunFailure`` (``Interrupted``
+    for Ctrl-C) with the valid part in ``exc.trajectory``; with ``check=False`` it is returned
+    instead, with ``traj.ok`` False and the reason in ``traj.stats.failure``.
+    ``torque``: an extra load, a function fn(t, q, omega) -> (Mx, My, Mz) of the time, Λ and ω
+    (user's body frame), M in ``frame`` ("body" or "space"), compiled by numba."""
     if not isinstance(scenario, Scenario):
-        scenario = load(scenario, method=method)
-    elif method is not None:
-        scenario = scenario.model_copy(update={"solver": scenario.solver.model_copy(update={"method": method})})
-    scene = build_scene(scenario)
-    return run_scene(scene, progress=progress)
+        scenario = load(scenario, method=method, duration=duration, overrides=overrides)
+    elif method is not None or duration is not None or overrides:
+        changes = dict(overrides or {})
+        if method is not None:
+            changes["solver.method"] = method
+        raw = scenario.model_dump(mode="json", exclude_unset=True)
+        scenario = parse_scenario(raw, source=scenario.title or "scenario", overrides=changes, duration=duration)
+    traj = run_scene(build_scene(scenario, torque=torque, frame=frame), progress=progress)
+    if check and not traj.ok:
+        stopped = Interrupted if traj.stats.interrupted else RunFailure
+        raise stopped(f"run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid samples are in exc.trajectory", trajectory=traj)
+    return traj
 
 
 def run_scene(scene: Scene, progress: ProgressCallback | None = None) -> Trajectory:
-    scenario = scene.scenario
-    s = scenario.solver
-    t = scenario.time.sample_times()
+    """Run ``scene`` whole: every sample in memory (the Python API)."""
+    chosen, reason, settings, t = _plan(scene)
+    with compile_clock() as compiling:  # numba compile / cache load, reported apart from integration
+        started = time.perf_counter()
+        solution = chosen.solve(scene, t, settings, progress)
+        seconds = time.perf_counter() - started
+    stats = _stats(chosen, reason, solution, seconds, compiling.seconds)
+    return build_trajectory(scene, solution, stats, euler_angles=scene.scenario.output.euler_angles)
+
+
+def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | None = None,
+                 timeout: float | None = None) -> tuple[RunSummary, float]:
+    """Run ``scene`` streamed into ``sink`` (``rotlab run``): chunks are converted and written as
+    the method produces them, so memory does not grow with the run.  The derived and visual
+    series keep every k-th sample (k from ``[output] visual_samples``).  Stops cleanly on Ctrl-C,
+    a failure or ``timeout`` (wall-clock seconds), keeping what was written; the sink is left
+    open for the caller to close (to the target or the partial path) or abort.
+    Returns the summary and the seconds spent converting and writing."""
+    from rotlab.methods.stepping import RunControl, controlled
+    from rotlab.recording.stream import ChunkStream
+    from rotlab.recording.writer import RecordingWriter
+
+    chosen, reason, settings, t = _plan(scene, lazy_times=True)
+    n = t.shape[0]
+    stride = max(1, -(-n // scene.scenario.output.visual_samples))
+    stats = RunStats(method=chosen.name, reason=reason, steps=0, rejected_steps=0, rhs_evaluations=0, seconds=0.0)
+    stream = ChunkStream(scene, stats, RecordingWriter(sink, stride=stride), scene.scenario.output.euler_angles, progress, n)
+    control = RunControl(consumer=stream, deadline=None if timeout is None else time.monotonic() + timeout, timeout=timeout)
+    with compile_clock() as compiling, controlled(control):
+        started = time.perf_counter()
+        solution = chosen.solve(scene, t, settings, progress)
+        seconds = time.perf_counter() - started - stream.seconds
+    final = _stats(chosen, reason, solution, seconds, compiling.seconds)
+    vars(stats).update(vars(final))  # the chunks hold this object: the report sees the final figures
+    stats.details = {**stats.details, "visual series": f"every {stride} samples" if stride > 1 else "every sample"}
+    try:
+        summary = stream.finish()
+    except KeyboardInterrupt:  # Ctrl-C while the last chunk and the static part were sent
+        stats.failure, stats.interrupted = f"interrupted by the user at t = {stream.last_time:.9g} s", True
+        summary = stream.summary()
+    if stats.interrupted or summary.samples < solution.valid:  # Ctrl-C, maybe inside the writer: say what was kept
+        stats.failure, stats.interrupted = f"interrupted by the user at t = {summary.end:.9g} s", True
+    return summary, stream.seconds
+
+
+def record(scene: Scene, sink: RecordingSink, progress: StreamProgress | None = None, timeout: float | None = None,
+           before_close: Callable[[], None] | None = None) -> tuple[RunSummary, float, Path | None]:
+    """``stream_scene`` into ``sink``, then finish the file: verified and renamed to the target,
+    or to ``NAME.partial.rrd`` when the run stopped early (an existing recording is never
+    replaced by an incomplete one).  On an error the temporary file is removed.  Returns the
+    summary, the seconds spent writing and the file written (None without one, or when no sample was sent).
+    ``before_close``: runs between the end of the run and the end of the stream (``--serve-web``
+    keeps serving there until Ctrl-C)."""
+    from rotlab.interrupts import deferred
+    from rotlab.recording.writer import partial_path
+
+    try:
+        try:
+            run, writing = stream_scene(scene, sink, progress, timeout)
+        finally:
+            if progress is not None:
+                progress.close()
+        if before_close is not None:
+            before_close()
+        if run.stats.failure and run.samples == 0:  # stopped before the first sample was sent: no file at all
+            sink.abort()
+            return run, writing, None
+        with deferred(deliver=False):  # the file is finished whole, Ctrl-C or not
+            final = sink.close(partial_path(sink.target) if run.stats.failure and sink.target is not None else None)
+    except BaseException:
+        sink.abort()
+        raise
+    return run, writing, final
+
+
+def _plan(scene: Scene, lazy_times: bool = False):
+    """(method, why, settings, sample times); ``lazy_times``: a ``SampleTimes`` (no array)."""
+    from rotlab.methods.stepping import SampleTimes
+
+    s, time_ = scene.scenario.solver, scene.scenario.time
+    t = SampleTimes(time_.start, time_.end, time_.sample_count) if lazy_times else time_.sample_times()
     settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps, order=s.order)
     chosen, reason, settings = choose_method(scene, s.method, settings, t)
-    started = time.perf_counter()
-    solution = chosen.solve(scene, t, settings, progress)
-    seconds = time.perf_counter() - started
-    stats = RunStats(
+    return chosen, reason, settings, t
+
+
+def _stats(chosen, reason: str, solution, seconds: float, compile_seconds: float) -> RunStats:
+    """Run statistics; ``seconds`` includes the ``compile_seconds`` of numba, reported apart."""
+    return RunStats(
         method=chosen.name,
         reason=reason,
         steps=solution.steps,
         rejected_steps=solution.rejected_steps,
         rhs_evaluations=solution.rhs_evaluations,
-        seconds=seconds,
+        seconds=max(seconds - compile_seconds, 0.0),
+        compile_seconds=compile_seconds,
         failure=solution.failure,
         interrupted=solution.interrupted,
         details=solution.details,
     )
-    return build_trajectory(scene, solution, stats, euler_angles=scenario.output.euler_angles)

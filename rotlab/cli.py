@@ -3,37 +3,57 @@ commands that need them, so ``rotlab --help`` stays fast."""
 
 from __future__ import annotations
 
+import signal
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Literal, Optional
 
 import typer
 
+try:  # recent typer carries its own copy of click; earlier releases use the click package
+    from typer._click import exceptions as click_errors
+except ImportError:  # pragma: no cover
+    from click import exceptions as click_errors  # type: ignore[no-redef]
+
 from rotlab import __version__
 from rotlab.bench.command import bench
+from rotlab.methods.names import METHOD_NAMES
 
 app = typer.Typer(
     name="rotlab",
     help="A laboratory for the rotation of a rigid body about a fixed point.",
-    add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # help is plain text: "[checks]" and "[sweep]" are TOML tables, not markup
 )
 
 TEMPLATE_KINDS = ("euler", "lagrange", "general")
+DEFAULT_VIEWER_URL = "rerun+http://127.0.0.1:9876/proxy"
+TemplateKind = Literal[TEMPLATE_KINDS]  # type: ignore[valid-type]
+MethodName = Literal[METHOD_NAMES]  # type: ignore[valid-type]
+SetOption = Annotated[
+    Optional[list[str]],
+    typer.Option("--set", metavar="KEY=VALUE", help="Override a scenario key, validated like the file: --set initial.omega=[0,0,50] (repeatable)."),
+]
+_reported = False  # an error line was already printed (main() adds none)
 
 
 def _fail(exc: Exception) -> None:
-    """Print one line to stderr and exit with the error's code (2 bad input, 1 run failure)."""
-    typer.echo(f"rotlab: error: {exc}", err=True)
+    """Print one line to stderr and exit with the error's code (2 bad input, 1 run failure,
+    130 interrupted)."""
+    from rotlab.errors import Interrupted
+
+    global _reported
+    typer.echo(f"rotlab: {'interrupted' if isinstance(exc, Interrupted) else 'error'}: {exc}", err=True)
+    _reported = True
     raise typer.Exit(getattr(exc, "exit_code", 1))
 
 
-def _check_outdir(outdir: Path) -> None:
-    from rotlab.errors import InputError
+def _overrides(assignments: list[str] | None) -> dict[str, object]:
+    """``--set KEY=VALUE`` options → {key path: value} (values are TOML values)."""
+    from rotlab.config.paths import parse_assignment
 
-    if outdir.exists() and not outdir.is_dir():
-        raise InputError(f"--outdir {outdir}", "is a file: give a directory")
+    return dict(parse_assignment(text) for text in assignments or ())
 
 
 def _version(value: bool) -> None:
@@ -52,64 +72,113 @@ def main_options(
 @app.command()
 def run(
     config: Annotated[Path, typer.Argument(help="Scenario TOML file.")],
-    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Recording to write (default: <config name>.rrd).")] = None,
-    method: Annotated[Optional[str], typer.Option("--method", help="Override solver.method (auto, rk4, dop853).")] = None,
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Recording to write (default: <config name>.rrd; none with a live viewer unless given).")] = None,
+    method: Annotated[Optional[MethodName], typer.Option("--method", help="Override solver.method.")] = None,
     duration: Annotated[Optional[float], typer.Option("--duration", help="Override the span: end = start + DURATION seconds.")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No summary, no progress bar.")] = False,
+    assignments: SetOption = None,
+    spawn: Annotated[bool, typer.Option("--spawn", help="Start a Rerun viewer and stream the run into it as it is computed.")] = False,
+    connect: Annotated[bool, typer.Option("--connect", help="Stream to a running viewer (at --url).")] = False,
+    url: Annotated[Optional[str], typer.Option("--url", help=f"The viewer's gRPC URL for --connect (default {DEFAULT_VIEWER_URL}).")] = None,
+    serve_web: Annotated[bool, typer.Option("--serve-web", help="Serve the web viewer (http://127.0.0.1:9090) and stream into it; waits for Ctrl-C at the end.")] = False,
+    port: Annotated[int, typer.Option("--port", min=1, max=65535, help="gRPC port of the viewer started by --spawn or the server of --serve-web.")] = 9876,
+    web_port: Annotated[int, typer.Option("--web-port", min=1, max=65535, help="HTTP port of --serve-web.")] = 9090,
+    timeout: Annotated[Optional[float], typer.Option("--timeout", help="Stop the run after SECONDS of wall-clock time (the samples so far are kept).")] = None,
+    max_megabytes: Annotated[Optional[float], typer.Option("--max-megabytes", help="Override [output] max_megabytes: the largest recording to start without asking.")] = None,
 ) -> None:
-    """Simulate a scenario and write a Rerun recording (.rrd)."""
-    from rotlab.errors import InputError, RunFailure
+    """Simulate a scenario and write a Rerun recording (.rrd), or stream it to a viewer."""
+    from rotlab.errors import InputError, Interrupted, RunFailure
 
     try:
-        _run(config, output, method, duration, quiet)
+        _run(config, output, method, duration, quiet, _overrides(assignments), spawn,
+             (url or DEFAULT_VIEWER_URL) if (connect or url) else None, serve_web, timeout, max_megabytes, port, web_port)
+    except KeyboardInterrupt:  # before the run began, or a second Ctrl-C: nothing was kept
+        _fail(Interrupted("interrupted before any sample was kept"))
     except (InputError, RunFailure) as exc:
         _fail(exc)
 
 
-def _run(config: Path, output: Path | None, method: str | None, duration: float | None, quiet: bool) -> None:
+def _positive(name: str, value: float | None) -> None:
+    from rotlab.errors import InputError
+
+    if value is not None and not (value > 0 and value < float("inf")):
+        raise InputError(name, f"must be a positive number (got {value})")
+
+
+def _serve_until_interrupted(url: str | None) -> None:
+    """Keep the web viewer's server up (it holds the recording) until Ctrl-C."""
     import time
 
-    from rotlab import api
-    from rotlab.errors import InputError, Interrupted, RunFailure
-    from rotlab.progress import ProgressBar
-    from rotlab.recording.writer import check_output_path, partial_path, write_recording
-    from rotlab.scene.scene import build_scene
-    from rotlab.summary import summary_lines
+    typer.echo(f"rotlab: serving the web viewer at {url} — Ctrl-C to stop (the file is finished then)", err=True)
+    try:
+        while True:
+            time.sleep(0.5)
+    except KeyboardInterrupt:
+        pass
+
+
+def _run(config: Path, output: Path | None, method: str | None, duration: float | None, quiet: bool, overrides: dict[str, object],
+         spawn: bool = False, connect: str | None = None, serve_web: bool = False, timeout: float | None = None,
+         max_megabytes: float | None = None, port: int = 9876, web_port: int = 9090) -> None:
+    import time
+
+    from rotlab import interrupts
+
+    with interrupts.deferred():  # Ctrl-C while numpy, scipy, numba and rerun load: raised after, not inside them
+        from rotlab import api
+        from rotlab.errors import Interrupted, RunFailure
+        from rotlab.progress import StreamProgress
+        from rotlab.recording.sink import LiveOptions, RecordingSink
+        from rotlab.recording.writer import check_output_path, check_size, partial_path
+        from rotlab.scene.scene import build_scene
+        from rotlab.summary import summary_lines
+    interrupts.shield_numba_compilation()
 
     started = time.perf_counter()
-    if duration is not None and not (duration > 0 and duration < float("inf")):
-        raise InputError("--duration", f"must be a positive number of seconds (got {duration})")
-    scenario = api.load(config, method=method, duration=duration)
-    target = output or Path(scenario.output.path or f"{config.stem}.rrd")
-    check_output_path(target)
+    _positive("--duration", duration)
+    _positive("--timeout", timeout)
+    _positive("--max-megabytes", max_megabytes)
+    live = LiveOptions(spawn=spawn, connect=connect, serve_web=serve_web, grpc_port=port, web_port=web_port)
+    scenario = api.load(config, method=method, duration=duration, overrides=overrides)
+    target = output if output is not None or live.any else Path(scenario.output.path or f"{config.stem}.rrd")
+    if target is not None:
+        check_output_path(target, inputs=(config,))
+        check_output_path(partial_path(target), inputs=(config,))
+        check_size(scenario, max_megabytes or scenario.output.max_megabytes)
     scene = build_scene(scenario)
-    bar = None if quiet else ProgressBar(f"{config.name}")
-    try:
-        traj = api.run_scene(scene, progress=bar)
-    finally:
-        if bar is not None:
-            bar.close()
-    if traj.stats.failure:  # an incomplete run never replaces a complete recording
-        target = partial_path(target)
-    write_recording(traj, target)
+    bar = None if quiet else StreamProgress(config.name)
+    sink = RecordingSink(target, live)
+    serve = (lambda: _serve_until_interrupted(sink.web_url)) if serve_web else None  # the server lives as long as the stream
+    run, writing, final = api.record(scene, sink, progress=bar, timeout=timeout, before_close=serve)
     if not quiet:
-        for line in summary_lines(traj, config, target, time.perf_counter() - started):
+        where = sink.web_url or ("viewer spawned" if spawn else connect)
+        for line in summary_lines(run, config, final, time.perf_counter() - started, writing, where):
             typer.echo(line)
-    if traj.stats.failure:
-        stopped = Interrupted if traj.stats.interrupted else RunFailure
-        raise stopped(f"{config}: run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid samples are in {target}")
+    if run.stats.failure:
+        stopped = Interrupted if run.stats.interrupted else RunFailure
+        kept = f"; the {run.samples:,} valid samples are in {final}" if final is not None else "; no sample was kept" if run.samples == 0 else ""
+        raise stopped(f"{config}: run stopped: {run.stats.failure}{kept}")
 
 
 @app.command()
-def validate(configs: Annotated[list[Path], typer.Argument(help="Scenario TOML files.")]) -> None:
+def validate(
+    paths: Annotated[list[Path], typer.Argument(help="Scenario files and/or directories of *.toml files.")],
+    assignments: SetOption = None,
+) -> None:
     """Check scenario files without running them (one line per file)."""
+    from rotlab.batch.runner import collect_configs
     from rotlab.config import load_scenario
     from rotlab.errors import InputError
 
+    try:
+        configs = collect_configs(paths)
+        overrides = _overrides(assignments)
+    except InputError as exc:
+        _fail(exc)
     failed = 0
     for path in configs:
         try:
-            scenario = load_scenario(path)
+            scenario = load_scenario(path, overrides)
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
         except InputError as exc:
             failed += 1
@@ -122,49 +191,110 @@ def validate(configs: Annotated[list[Path], typer.Argument(help="Scenario TOML f
 def batch(
     paths: Annotated[list[Path], typer.Argument(help="Scenario files and/or directories of *.toml files.")],
     outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Where recordings, summary.json and junit.xml go.")] = Path("batch-out"),
-    jobs: Annotated[int, typer.Option("-j", "--jobs", min=1, help="Parallel processes.")] = 2,
+    jobs: Annotated[int, typer.Option("-j", "--jobs", min=1, help="Parallel worker processes.")] = 2,
+    dask: Annotated[Optional[str], typer.Option("--dask", help="Run on an existing Dask cluster: tcp://HOST:PORT.")] = None,
+    timeout: Annotated[Optional[float], typer.Option("--timeout", help="Per-case wall-clock limit in seconds (local workers).")] = None,
+    retries: Annotated[int, typer.Option("--retries", min=0, help="Run a case again when its worker dies (default 0).")] = 0,
+    markdown: Annotated[Optional[Path], typer.Option("--markdown", help="Write a Markdown summary to PATH (also appended to $GITHUB_STEP_SUMMARY when set).")] = None,
 ) -> None:
-    """Run scenario suites in parallel; exit 1 if any scenario errs or breaks a [checks] bound."""
-    from rotlab.batch.reports import table, write_junit, write_summary
+    """Run scenario suites in parallel; exit 1 if any scenario errs or breaks a [checks] bound
+    (a scenario without [checks] is held to default bounds on its invariants)."""
+    import os
+    import signal
+
+    from rotlab.batch.reports import case_line, table, write_junit, write_markdown, write_summary
     from rotlab.batch.runner import collect_configs, run_batch
-    from rotlab.errors import InputError
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.outdir import prepare_outdir
+    from rotlab.parallel import exit_after_stop
 
     try:
+        _check_timeout(timeout, dask)
         configs = collect_configs(paths)
-        _check_outdir(outdir)
+        prepare_outdir(outdir)
+        if markdown is not None:
+            prepare_outdir(markdown.parent if str(markdown.parent) else Path("."))
     except InputError as exc:
         _fail(exc)
-    results = run_batch(configs, outdir, jobs)
-    write_summary(results, outdir / "summary.json")
-    write_junit(results, outdir / "junit.xml")
-    typer.echo(table(results))
-    if any(r.status != "pass" for r in results):
-        raise typer.Exit(1)
+    exit_after_stop()
+    try:
+        run = run_batch(configs, outdir, jobs, timeout=timeout, retries=retries, dask_address=dask,
+                        on_result=lambda r: typer.echo(case_line(r)))
+    except InputError as exc:  # the Dask scheduler cannot be reached
+        _fail(exc)
+    stopped = signal.Signals(run.stopped).name if run.stopped else None
+    typer.echo(table(run.results))
+    try:
+        write_summary(run.results, outdir / "summary.json", stopped)
+        write_junit(run.results, outdir / "junit.xml")
+        if markdown is not None:
+            write_markdown(run.results, markdown, append=False, stopped=stopped)
+        if os.environ.get("GITHUB_STEP_SUMMARY"):
+            write_markdown(run.results, Path(os.environ["GITHUB_STEP_SUMMARY"]), append=True, stopped=stopped)
+    except RunFailure as exc:
+        _fail(exc)
+    if stopped:
+        _stopped_line(f"rotlab: batch stopped by {stopped}: wrote the summary of the cases that finished")
+    if run.exit_code:
+        raise typer.Exit(run.exit_code)
+
+
+def _stopped_line(text: str) -> None:
+    """The one line a stopped batch/sweep prints (main() adds no "interrupted" after it)."""
+    global _reported
+    typer.echo(text, err=True)
+    _reported = True
+
+
+def _check_timeout(timeout: float | None, dask: str | None) -> None:
+    from rotlab.errors import InputError
+
+    if timeout is None:
+        return
+    if not (0 < timeout < float("inf")):
+        raise InputError("--timeout", f"must be a positive number of seconds (got {timeout})")
+    if dask is not None:
+        raise InputError("--timeout", "not available with --dask (a running Dask task cannot be stopped): use the cluster's limits")
 
 
 @app.command()
 def sweep(
     config: Annotated[Path, typer.Argument(help="Scenario TOML file with a [sweep] section.")],
     outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Where results.csv/.parquet and the comparison recording go.")] = Path("sweep-out"),
-    jobs: Annotated[int, typer.Option("-j", "--jobs", min=1, help="Local processes.")] = 2,
+    jobs: Annotated[int, typer.Option("-j", "--jobs", min=1, help="Local worker processes.")] = 2,
     dask: Annotated[Optional[str], typer.Option("--dask", help="Run on an existing Dask cluster: tcp://HOST:PORT.")] = None,
+    timeout: Annotated[Optional[float], typer.Option("--timeout", help="Per-case wall-clock limit in seconds (local workers).")] = None,
+    retries: Annotated[int, typer.Option("--retries", min=0, help="Run a case again when its worker dies (default 0).")] = 0,
 ) -> None:
     """Run a parameter sweep; exit 1 if any case errs or breaks a [checks] bound."""
-    from rotlab.errors import InputError
-    from rotlab.sweep.report import terminal_table, write_comparison, write_results
-    from rotlab.sweep.runner import plan, run_sweep
+    import signal
+
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.outdir import prepare_outdir
+    from rotlab.parallel import exit_after_stop
+    from rotlab.recording.sweep import write_comparison
+    from rotlab.sweep.report import terminal_table, write_results
+    from rotlab.sweep.runner import plan, run_cases
 
     try:
-        _check_outdir(outdir)
+        _check_timeout(timeout, dask)
         sweep_plan = plan(config)
-        outdir.mkdir(parents=True, exist_ok=True)
-        outcomes, how = run_sweep(sweep_plan, jobs=jobs, dask_address=dask)
+        prepare_outdir(outdir)
+        exit_after_stop()
+        run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries)
     except InputError as exc:
         _fail(exc)
-    write_results(outcomes, outdir)
-    write_comparison(outcomes, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
-    typer.echo(terminal_table(outcomes, how))
+    outcomes = run.outcomes
+    try:
+        write_results(outcomes, outdir)
+        write_comparison(outcomes, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
+    except (OSError, RunFailure) as exc:
+        _fail(RunFailure(f"could not write the sweep's results in {outdir}: {getattr(exc, 'strerror', None) or exc}"))
+    typer.echo(terminal_table(outcomes, run.how))
     typer.echo(f"wrote {outdir / 'results.csv'}, {outdir / 'results.parquet'}, {outdir / (config.stem + '_sweep.rrd')}")
+    if run.stopped:
+        _stopped_line(f"rotlab: sweep stopped by {signal.Signals(run.stopped).name}: wrote the results of the cases that finished")
+        raise typer.Exit(128 + run.stopped)
     if any(o.status != "pass" for o in outcomes):
         raise typer.Exit(1)
 
@@ -189,8 +319,38 @@ def snapshot(
 
 
 @app.command()
-def stress(quick: Annotated[bool, typer.Option("--quick", help="The subset that runs in under two minutes.")] = False) -> None:
-    """Run the stress suite of hard scenes; exit 0 only if every check passes."""
+def animate(
+    recording: Annotated[Path, typer.Argument(help="A recording written by `rotlab run`.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Animation to write: .gif, or .mp4 (needs ffmpeg).")] = Path("animation.gif"),
+    fps: Annotated[float, typer.Option("--fps", help="Frames per second of the clip.")] = 20.0,
+    speed: Annotated[float, typer.Option("--speed", help="Simulated seconds per second of clip.")] = 1.0,
+    size: Annotated[str, typer.Option("--size", help="Frame size WIDTHxHEIGHT.")] = "640x640",
+) -> None:
+    """Animate the body (ellipsoid, axes, arrows, trailing trace) from a recording, for a report
+    or a slide (needs matplotlib: pip install 'rotlab[plots]')."""
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.recording.animate import animate as render
+    from rotlab.recording.snapshot import parse_size
+
+    try:
+        path = render(recording, output, fps, speed, parse_size(size))
+    except (InputError, RunFailure) as exc:
+        _fail(exc)
+    typer.echo(f"wrote {path}")
+
+
+@app.command()
+def stress(
+    quick: Annotated[bool, typer.Option("--quick", help="The subset that runs in under two minutes.")] = False,
+    faults: Annotated[bool, typer.Option("--faults", help="Run the fault campaign instead: hostile inputs, paths and signals against the real CLI.")] = False,
+    count: Annotated[int, typer.Option("--count", min=1, help="Fault campaign: inputs per category.")] = 40,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Fault campaign: the seed (same seed, same inputs).")] = 0,
+) -> None:
+    """Run the stress suite of hard scenes (or, with --faults, the fault campaign); exit 0 only
+    if every check passes."""
+    if faults:
+        _fault_campaign(count, seed)
+        return
     from rotlab.stress.suite import run_suite
 
     def report(outcome) -> None:
@@ -204,28 +364,58 @@ def stress(quick: Annotated[bool, typer.Option("--quick", help="The subset that 
         raise typer.Exit(1)
 
 
+def _fault_campaign(count: int, seed: int) -> None:
+    from rotlab.stress.faults import run_campaign, table
+
+    def report(verdict) -> None:
+        if verdict.broken:
+            typer.echo(f"BROKEN  {verdict.category}: {verdict.name}: {verdict.outcome} — {verdict.detail}")
+
+    verdicts = run_campaign(seed, count, report)
+    typer.echo(table(verdicts))
+    broken = sum(v.broken for v in verdicts)
+    typer.echo(f"faults: {len(verdicts)} inputs, {broken} broke a promise (seed {seed})")
+    if broken:
+        raise typer.Exit(1)
+
+
 app.command(name="bench")(bench)
 
 
 @app.command()
-def new(kind: Annotated[str, typer.Argument(help="euler, lagrange or general.")]) -> None:
+def new(kind: Annotated[TemplateKind, typer.Argument(help="The kind of scene.")]) -> None:
     """Print a commented scenario template: `rotlab new lagrange > my_top.toml`."""
     from importlib.resources import files
 
-    if kind not in TEMPLATE_KINDS:
-        typer.echo(f"rotlab: error: KIND: unknown kind '{kind}': choose one of {', '.join(TEMPLATE_KINDS)}", err=True)
-        raise typer.Exit(2)
     typer.echo(files("rotlab").joinpath("templates", f"{kind}.toml").read_text(encoding="utf-8"), nl=False)
 
 
-def main() -> None:
-    """Console entry point."""
+@app.command()
+def schema() -> None:
+    """Print the scenario file's JSON Schema (for editors: Taplo / Even Better TOML complete and
+    check keys with it; the shipped configs name it in their first line)."""
+    from rotlab.config.schema import schema_text
+
+    typer.echo(schema_text(), nl=False)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console entry point: every error is one line on stderr (usage errors too), exit codes
+    0 success, 1 run failure, 2 bad input, 130 interrupted."""
     try:
-        app()
-    except KeyboardInterrupt:
+        code = app(args=argv, standalone_mode=False)
+    except click_errors.NoArgsIsHelpError as exc:
+        exc.show()
+        code = 2
+    except click_errors.UsageError as exc:
+        command = exc.ctx.command_path if exc.ctx is not None else "rotlab"
+        typer.echo(f"rotlab: error: {exc.format_message().replace('Value error, ', '')} (see `{command} --help`)", err=True)
+        code = exc.exit_code
+    except click_errors.ClickException as exc:
+        typer.echo(f"rotlab: error: {exc.format_message()}", err=True)
+        code = exc.exit_code
+    except (typer.Abort, KeyboardInterrupt):
+        code = 130
+    if code == 130 and not _reported:  # typer turns Ctrl-C into exit 130 without a word
         typer.echo("rotlab: interrupted", err=True)
-        sys.exit(130)
-
-
-if __name__ == "__main__":
-    main()
+    sys.exit(code if isinstance(code, int) else 0)

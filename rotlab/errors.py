@@ -22,9 +22,17 @@ class InputError(Exception):
 
 
 class RunFailure(Exception):
-    """A run stopped (non-finite state, step budget exhausted): the valid samples are kept."""
+    """A run stopped (non-finite state, step budget exhausted): the valid samples are kept, in
+    ``trajectory`` where the Python API raised it."""
 
     exit_code = 1
+
+    def __init__(self, message: str, trajectory: object | None = None) -> None:
+        super().__init__(message)
+        self.trajectory = trajectory
+
+    def __reduce__(self):  # picklable across worker processes (the trajectory stays behind)
+        return (type(self), (str(self),))
 
 
 class Interrupted(RunFailure):

@@ -1,14 +1,305 @@
-"""Local worker processes for batch runs and sweeps.
+"""Local worker processes for batch runs and sweeps: one case per worker at a time, so that a
+worker's death, a case's time limit or a signal costs only that case.
 
-Workers come from a ``forkserver``: forking a process that already runs threads (numba's
-parallel layer, Rerun's writer) is unsafe, and ``spawn`` would re-import everything per worker.
+Workers are ``spawn``ed: forking a process that already runs threads (numba's parallel layer,
+Rerun's writer) is unsafe, and a spawned worker is a child of the main process, so it can ask the
+kernel to kill it when the main process dies (a ``forkserver`` child is the forkserver's, which
+outlives a killed main process while any worker holds its pipe).  Each worker imports rotlab
+once (``preload``) and then runs task after task.
+
+``run_tasks`` hands each worker one task over its own pipe and waits on every busy worker's pipe
+and process sentinel at once:
+
+* a result arrives → reported through ``on_end`` at once (a line per finished case);
+* the worker process dies (``kill -9``, out of memory, a crash in compiled code) → that task
+  ends as ``worker died (…)`` (or is retried, ``retries`` times), a fresh worker takes its place
+  and every other task goes on;
+* a task exceeds ``timeout`` seconds → its worker is killed, the task ends as ``timed out``;
+* SIGINT or SIGTERM in the main process → pending tasks are cancelled, workers terminated
+  (none is left behind), and ``run_tasks`` returns what finished with ``stopped`` set to the
+  signal: the caller writes its summary of those and exits 128 + signal.
+
+Workers ignore SIGINT (Ctrl-C to the process group stops the batch through the main process,
+without a traceback from every worker) and ask the kernel (Linux ``PR_SET_PDEATHSIG``) to kill
+them when the main process dies, so even ``kill -9`` of the main process orphans nothing that
+keeps computing.
 """
 
 from __future__ import annotations
 
+import ctypes
+import importlib
 import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
+import os
+import signal
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection, wait
+from typing import Any, Callable, Sequence
+
+RUN_MODULES = ("rotlab.api", "rotlab.checks", "rotlab.recording.writer")  # what running a case imports
+STARTED = "started"  # what a worker sends when it begins a task
+KILL_GRACE = 2.0  # s between SIGTERM and SIGKILL when workers are stopped
+PR_SET_PDEATHSIG = 1
 
 
-def process_pool(jobs: int) -> ProcessPoolExecutor:
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("forkserver"))
+@dataclass
+class TaskEnd:
+    index: int  # position in the task list
+    result: Any = None  # the function's return value (None when ``failure`` is set)
+    failure: str | None = None  # "worker died (killed by SIGKILL)", "timed out after 5 s", …
+    attempts: int = 1
+    seconds: float = 0.0  # wall time of the last attempt
+    pid: int | None = None  # the worker process of the last attempt (local workers)
+
+
+@dataclass
+class TaskRun:
+    ends: list[TaskEnd]  # in the order they finished
+    stopped: int | None = None  # the signal that stopped the run (SIGINT, SIGTERM), else None
+    running: dict[int, int] = field(default_factory=dict)  # task → worker pid, for tasks running when it stopped
+
+
+class Stopped(Exception):
+    """Raised in the main process by SIGINT/SIGTERM while tasks run."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def context() -> multiprocessing.context.BaseContext:
+    return multiprocessing.get_context("spawn")
+
+
+def run_tasks(fn: Callable[..., Any], tasks: Sequence[tuple], jobs: int, *, timeout: float | None = None,
+              retries: int = 0, on_end: Callable[[TaskEnd], None] | None = None, preload: Sequence[str] = RUN_MODULES) -> TaskRun:
+    """Run ``fn(*task)`` for every task in at most ``jobs`` worker processes (module docstring).
+    ``fn`` must be importable (module level) and should not raise: an exception it raises ends
+    its task with the exception's text as the failure.  Each worker imports the ``preload``
+    modules before its first task: a task's ``timeout`` runs from the moment its worker starts
+    it, so a worker's start-up (imports) never counts against a case."""
+    pool = _Pool(fn, max(1, min(jobs, len(tasks))), tuple(preload))
+    pending: deque[tuple[int, int]] = deque((i, 1) for i in range(len(tasks)))  # (task, attempt)
+    ends: list[TaskEnd] = []
+
+    def finish(end: TaskEnd) -> None:
+        ends.append(end)
+        if on_end is not None:
+            on_end(end)
+
+    with signals_raise_stopped():
+        try:
+            while pending or pool.busy():
+                while pending and pool.has_room():
+                    index, attempt = pending.popleft()
+                    pool.start(index, attempt, tasks[index])
+                for worker, event in pool.wait(timeout):
+                    index, attempt, seconds, pid = worker.task, worker.attempt, worker.elapsed(time.monotonic()), worker.process.pid
+                    if event == "result":
+                        status, payload = worker.result
+                        if status == "ok":
+                            finish(TaskEnd(index, payload, None, attempt, seconds, pid))
+                        else:
+                            finish(TaskEnd(index, None, payload, attempt, seconds, pid))
+                        worker.task = None
+                    elif event == "died":
+                        pool.discard(worker)
+                        how = f"worker died ({_exit_text(worker.process.exitcode)})"
+                        if attempt <= retries:
+                            pending.appendleft((index, attempt + 1))
+                        else:
+                            finish(TaskEnd(index, None, how + _attempts_text(attempt), attempt, seconds, pid))
+                    else:  # timed out
+                        pool.discard(worker)
+                        finish(TaskEnd(index, None, f"timed out after {timeout:g} s (per-case --timeout)", attempt, seconds, pid))
+            pool.close(kill=False)
+        except Stopped as stop:
+            running = {w.task: w.process.pid for w in pool.workers if w.task is not None}
+            pool.close(kill=True)
+            return TaskRun(ends, stop.signum, running)
+        except BaseException:
+            pool.close(kill=True)
+            raise
+    return TaskRun(ends, None)
+
+
+def _attempts_text(attempts: int) -> str:
+    return f" on each of {attempts} attempts" if attempts > 1 else ""
+
+
+def _exit_text(code: int | None) -> str:
+    if code is not None and code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit code {code}"
+
+
+_EXIT_AFTER_STOP = False
+
+
+def exit_after_stop() -> None:
+    """For a command that ends once its tasks are stopped: after a stop signal, further SIGINT
+    and SIGTERM stay ignored, so the summary of what finished is written and the exit code is
+    128 + the first signal (not a second Ctrl-C's KeyboardInterrupt during exit)."""
+    global _EXIT_AFTER_STOP
+    _EXIT_AFTER_STOP = True
+
+
+class signals_raise_stopped:
+    """SIGINT and SIGTERM raise ``Stopped`` in the main thread while tasks run — once: a second
+    signal (Ctrl-C pressed again) while the workers are being stopped is ignored, so the
+    summary of what finished is still written."""
+
+    def __enter__(self) -> None:
+        self.saved: dict[int, Any] = {}
+        self.fired = False
+        if threading.current_thread() is not threading.main_thread():
+            return
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            self.saved[signum] = signal.signal(signum, self._raise_stopped)
+
+    def __exit__(self, *exc: object) -> None:
+        for signum, handler in self.saved.items():
+            signal.signal(signum, signal.SIG_IGN if self.fired and _EXIT_AFTER_STOP else handler)
+
+    def _raise_stopped(self, signum: int, frame: object) -> None:
+        if self.fired:
+            return
+        self.fired = True
+        raise Stopped(signum)
+
+
+class _Worker:
+    def __init__(self, fn: Callable[..., Any], preload: tuple[str, ...]) -> None:
+        self.conn, child = context().Pipe(duplex=True)
+        self.process = context().Process(target=_serve, args=(fn, child, preload, os.getpid()), daemon=True)
+        self.process.start()
+        child.close()
+        self.task: int | None = None
+        self.attempt = 0
+        self.started: float | None = None  # when the worker began the task (None: not yet)
+        self.sent = 0.0
+        self.result: Any = None
+
+    def elapsed(self, now: float) -> float:
+        return now - (self.started if self.started is not None else self.sent)
+
+    def stop(self, kill: bool) -> None:
+        try:
+            if kill:
+                self.process.terminate()
+            else:
+                self.conn.send(None)  # finish: the worker returns
+        except (OSError, ValueError):
+            pass
+        self.process.join(KILL_GRACE)
+        if self.process.is_alive():
+            self.process.kill()
+            self.process.join()
+        self.conn.close()
+
+
+class _Pool:
+    def __init__(self, fn: Callable[..., Any], size: int, preload: tuple[str, ...]) -> None:
+        self.fn, self.size, self.preload = fn, size, preload
+        self.workers: list[_Worker] = []
+
+    def busy(self) -> bool:
+        return any(w.task is not None for w in self.workers)
+
+    def has_room(self) -> bool:
+        return any(w.task is None for w in self.workers) or len(self.workers) < self.size
+
+    def start(self, index: int, attempt: int, args: tuple) -> None:
+        worker = next((w for w in self.workers if w.task is None), None)
+        if worker is None:
+            worker = _Worker(self.fn, self.preload)
+            self.workers.append(worker)
+        worker.task, worker.attempt, worker.started, worker.sent = index, attempt, None, time.monotonic()
+        worker.conn.send((index, args))
+
+    def discard(self, worker: _Worker) -> None:
+        self.workers.remove(worker)
+        worker.stop(kill=True)
+
+    def wait(self, timeout: float | None) -> list[tuple[_Worker, str]]:
+        """Block until a busy worker has a result, dies, or passes its deadline."""
+        busy = [w for w in self.workers if w.task is not None]
+        running = [w.started for w in busy if w.started is not None]
+        limit = None
+        if timeout is not None and running:
+            limit = max(0.0, min(running) + timeout - time.monotonic())
+        wait([obj for w in busy for obj in (w.conn, w.process.sentinel)], limit)
+        events = []
+        for w in busy:
+            result = self._receive(w)
+            if result:
+                events.append((w, "result"))
+            elif not w.process.is_alive():
+                w.process.join()
+                events.append((w, "died"))
+            elif timeout is not None and w.started is not None and time.monotonic() - w.started >= timeout:
+                events.append((w, "timeout"))
+        return events
+
+    @staticmethod
+    def _receive(w: _Worker) -> bool:
+        """Read what ``w`` sent: "started" marks the task's start; True when its result came
+        (a result sent just before the worker died still counts)."""
+        while w.conn.poll():
+            try:
+                message = w.conn.recv()
+            except (EOFError, OSError):
+                return False
+            if message == STARTED:
+                w.started = time.monotonic()
+                continue
+            w.result = message
+            return True
+        return False
+
+    def close(self, kill: bool) -> None:
+        for worker in self.workers:
+            if kill:
+                worker.process.terminate()  # all at once, then wait for each
+        for worker in self.workers:
+            worker.stop(kill)
+        self.workers = []
+
+
+def _serve(fn: Callable[..., Any], conn: Connection, preload: tuple[str, ...], parent: int) -> None:
+    """Worker loop: run tasks from ``conn`` until told to stop (None) or the pipe closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent)
+    for module in preload:
+        importlib.import_module(module)
+    while True:
+        try:
+            item = conn.recv()
+        except (EOFError, OSError):
+            return
+        if item is None:
+            return
+        index, args = item
+        conn.send(STARTED)
+        try:
+            reply = ("ok", fn(*args))
+        except Exception as exc:  # fn should not raise; if it does, the task fails, the worker lives
+            reply = ("raised", f"{type(exc).__name__}: {exc}")
+        conn.send(reply)
+
+
+def _die_with_parent(parent: int) -> None:
+    """Linux: SIGKILL this worker when its parent (the main process) exits: no orphan computes on."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: workers still exit when their pipe closes
+        return
+    if os.getppid() != parent:  # the parent already died before prctl took effect
+        os._exit(1)

@@ -1,4 +1,10 @@
-"""A minimal progress bar on stderr, shown only on a terminal and for runs that last (> 0.5 s)."""
+"""One progress display for a whole run — integration and writing — on stderr.
+
+On a terminal: a transient rich bar (gone when the run ends) with samples written, rate and ETA,
+and how far the integration has got.  Elsewhere (CI logs, pipes): a plain line on stdout at most
+every ``LINE_EVERY`` seconds, none for runs shorter than that (stderr then carries only the
+one-line error of a run that fails).
+"""
 
 from __future__ import annotations
 
@@ -6,30 +12,86 @@ import sys
 import time
 from typing import TextIO
 
+LINE_EVERY = 10.0  # s between lines when stderr is not a terminal
 
-class ProgressBar:
-    def __init__(self, label: str, stream: TextIO | None = None, delay: float = 0.5, width: int = 30) -> None:
-        self.label, self.delay, self.width = label, delay, width
+
+class StreamProgress:
+    """``progress(done, total)`` is the integration's callback; ``written(done, total)`` the writer's."""
+
+    def __init__(self, label: str, stream: TextIO | None = None) -> None:
+        self.label = label
         self.stream = sys.stderr if stream is None else stream
         self.started = time.perf_counter()
-        self.shown = False
-        self.last = 0.0
-        self.enabled = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.integrated = 0
+        self.done = 0
+        self.last_line = self.started
+        self.terminal = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.lines = sys.stdout if stream is None else stream  # where the plain lines go (not a terminal)
+        self._bar = None
+        self._task = None
 
     def __call__(self, done: int, total: int) -> None:
-        if not self.enabled:
-            return
+        self.integrated = done
+        self._show(total)
+
+    def written(self, done: int, total: int) -> None:
+        self.done = done
+        self._show(total)
+
+    def _show(self, total: int) -> None:
         now = time.perf_counter()
-        if now - self.started < self.delay or (now - self.last < 0.1 and done < total):
-            return
-        self.last = now
-        fraction = done / total if total else 1.0
-        filled = int(self.width * fraction)
-        self.stream.write(f"\r{self.label} [{'#' * filled}{'.' * (self.width - filled)}] {100 * fraction:5.1f}%")
-        self.stream.flush()
-        self.shown = True
+        if self.terminal:
+            if self._bar is None:
+                if now - self.started < 0.3:
+                    return
+                self._open(total)
+            self._bar.update(self._task, completed=self.done, total=total, integrated=f"{self.integrated:,}")
+        elif now - self.last_line >= LINE_EVERY:
+            self.last_line = now
+            rate = self.done / max(now - self.started, 1e-9)
+            eta = (total - self.done) / rate if rate > 0 else float("inf")
+            left = f"about {eta:,.0f} s left" if eta < float("inf") else "time left unknown"
+            self.lines.write(f"{self.label}: {self.done:,} of {total:,} samples written ({100 * self.done / max(total, 1):.0f}%; "
+                             f"integrated {self.integrated:,}), {rate:,.0f} samples/s, {left}\n")
+            self.lines.flush()
+
+    def _open(self, total: int) -> None:
+        from rich.console import Console
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
+
+        self._bar = Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            TaskProgressColumn(),
+            MofNCompleteColumn(),
+            TextColumn("samples · integrated {task.fields[integrated]} ·"),
+            _RateColumn(),
+            TimeRemainingColumn(),
+            console=Console(file=self.stream),
+            transient=True,
+        )
+        self._task = self._bar.add_task(self.label, total=total, integrated="0")
+        self._bar.start()
 
     def close(self) -> None:
-        if self.shown:
-            self.stream.write("\r" + " " * (len(self.label) + self.width + 12) + "\r")
-            self.stream.flush()
+        if self._bar is not None:
+            self._bar.stop()
+            self._bar = None
+
+
+def _rate_column_class():
+    from rich.progress import ProgressColumn
+    from rich.text import Text
+
+    class RateColumn(ProgressColumn):
+        """Samples written per second (rich's own speed columns count bytes)."""
+
+        def render(self, task) -> Text:
+            speed = task.finished_speed or task.speed
+            return Text("" if speed is None else f"{speed / 1e6:.2f} M/s", style="progress.data.speed")
+
+    return RateColumn
+
+
+def _RateColumn():  # noqa: N802 — built on first use: rich is imported only when a bar is shown
+    return _rate_column_class()()

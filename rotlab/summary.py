@@ -4,20 +4,31 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rotlab.trajectory import Trajectory
+from rotlab.trajectory import RunSummary
 
 
-def summary_lines(traj: Trajectory, config: Path, output: Path, wall: float) -> list[str]:
-    scene, stats = traj.scene, traj.stats
-    n = traj.t.shape[0]
-    span = f"{traj.t[0]:g}–{traj.t[-1]:g} s" if n else "nothing"
-    drift = " | ".join(f"{name} {value:.1e}" for name, value in traj.max_drift().items())
-    size = output.stat().st_size if output.exists() else 0
-    return [
+def summary_lines(run: RunSummary, config: Path, output: Path | None, wall: float, writing: float = 0.0,
+                  live: str | None = None) -> list[str]:
+    """``writing``: seconds spent converting and sending samples (streamed runs interleave it with
+    the integration, whose own time is ``run.stats.seconds``); ``live``: where the run was streamed."""
+    scene, stats = run.scene, run.stats
+    span = f"{run.start:g}–{run.end:g} s" if run.samples else "nothing"
+    drift = " | ".join(f"{name} {value:.1e}" for name, value in run.max_drift().items())
+    lines = [
         f"{config.name}: {scene.kind.replace('_', '-')} scene — {scene.kind_reason}",
         f"  method   {stats.method} ({stats.reason})",
-        f"  run      {n:,} samples over {span}; {stats.steps:,} steps ({stats.rejected_steps:,} rejected); "
-        f"integration {stats.seconds:.3g} s, total {wall:.3g} s",
+        f"  run      {run.samples:,} samples over {span}; {stats.steps:,} steps ({stats.rejected_steps:,} rejected); "
+        f"integration {stats.seconds:.3g} s{_compiling(stats.compile_seconds)}, " + (f"writing {writing:.3g} s, " if writing else "") + f"total {wall:.3g} s",
         f"  drift    {drift}  (max relative, over the run)",
-        f"  wrote    {output} ({size / 1e6:.2f} MB) — open with: rerun {output}",
     ]
+    if output is not None:
+        size = output.stat().st_size if output.exists() else 0
+        lines.append(f"  wrote    {output} ({size / 1e6:.2f} MB) — open with: rerun {output}")
+    if live:
+        lines.append(f"  live     {live}")
+    return lines
+
+
+def _compiling(seconds: float) -> str:
+    """The numba compile / cache-load time of the run, when there was any."""
+    return f" (+ {seconds:.3g} s compiling or loading numba kernels)" if seconds >= 5e-4 else ""

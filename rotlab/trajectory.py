@@ -2,22 +2,17 @@
 
     T = ½ ω·Iω,  L = Iω (body) and R L (space),  V = −Σ F·(R p)  (constant space-frame forces,
     gravity included),  W = ∫ M_nc·ω dt,  and the invariant H = T + V − W.
-Relative drift of each invariant (scale: |L₀| for momenta, max(|H₀|, T₀ + |V₀|) for energy;
-absolute when the scale is zero):
-    energy            (H − H₀)/scale
-    quaternion_norm   |Λ| − 1
-    L_norm            (|L| − |L₀|)/|L₀|                 torque-free
-    L_space           |L_space − L_space₀| / |L₀|        torque-free
-    L_vertical        (L_space − L_space₀)·up / |L₀|     parallel forces (up = −F̂)
-    L_symmetry        (L − L₀)·e_sym / |L₀|              Lagrange top
+The invariants and their relative drift: ``rotlab.invariants`` (one table).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
+from rotlab import invariants
 from rotlab.core import quaternion as quat
 from rotlab.methods.base import Solution
 from rotlab.scene.scene import Scene
@@ -34,6 +29,7 @@ class RunStats:
     failure: str | None = None
     interrupted: bool = False
     details: dict[str, object] = field(default_factory=dict)
+    compile_seconds: float = 0.0  # numba compilation / cache loading during the run (not in ``seconds``)
 
 
 @dataclass
@@ -59,35 +55,148 @@ class Trajectory:
         """max |drift| over the run, per invariant."""
         return {name: float(np.max(np.abs(v))) if v.size else 0.0 for name, v in self.invariants.items()}
 
+    @property
+    def ok(self) -> bool:
+        """The run covered the whole span (no failure, no interrupt)."""
+        return self.stats.failure is None
+
+    def __repr__(self) -> str:
+        n = self.t.shape[0]
+        span = f"{self.t[0]:g}–{self.t[-1]:g} s" if n else "no samples"
+        drift = ", ".join(f"{name} {value:.1e}" for name, value in self.max_drift().items())
+        state = "ok" if self.ok else f"stopped: {self.stats.failure}"
+        return (f"<Trajectory {self.scene.kind.replace('_', '-')} scene, {n:,} samples over {span}, "
+                f"method {self.stats.method}, max drift {drift or 'none'}; {state}>")
+
+    def save(self, path: str | Path) -> Path:
+        """Write the same Rerun recording as ``rotlab run`` (temporary file, renamed when complete)."""
+        from rotlab.recording.writer import write_recording
+
+        return write_recording(self, path)
+
+    def columns(self) -> dict[str, tuple[np.ndarray, str]]:
+        """Every series as a named column: name → (values, unit).  Vectors name their frame."""
+        out: dict[str, tuple[np.ndarray, str]] = {"t": (self.t, "s")}
+        for k in range(4):
+            out[f"q{k}"] = (self.quaternion[:, k], "1 (body → space, scalar first)")
+        for label, values, unit in (("omega", self.omega, "rad/s"), ("L", self.L_body, "kg·m²/s")):
+            for k, axis in enumerate("xyz"):
+                out[f"{label}_{axis}_body"] = (values[:, k], unit)
+        for k, axis in enumerate("xyz"):
+            out[f"L_{axis}_space"] = (self.L_space[:, k], "kg·m²/s")
+        out["kinetic"] = (self.kinetic, "J")
+        if self.potential is not None:
+            out["potential"] = (self.potential, "J")
+            out["total"] = (self.total, "J")
+        if self.work is not None:
+            out["work"] = (self.work, "J")
+        for name, drift in self.invariants.items():
+            out[f"drift_{name}"] = (drift, "1 (relative)")
+        if self.euler_angles is not None:
+            for k, name in enumerate(("psi", "theta", "phi")):
+                out[name] = (self.euler_angles[:, k], "rad")
+        return out
+
+    def to_dataframe(self):
+        """A pandas DataFrame of ``columns()``; units in ``df.attrs["units"]`` (needs pandas)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError("Trajectory.to_dataframe needs pandas: pip install pandas (or rotlab[dataframe])") from None
+        columns = self.columns()
+        frame = pd.DataFrame({name: values for name, (values, _) in columns.items()})
+        frame.attrs["units"] = {name: unit for name, (_, unit) in columns.items()}
+        return frame
+
+    def take(self, rows: np.ndarray) -> Trajectory:
+        """The samples ``rows`` (indices) of this trajectory."""
+        pick = lambda a: None if a is None else a[rows]  # noqa: E731
+        return Trajectory(self.scene, self.stats, self.t[rows], self.quaternion[rows], self.omega[rows], self.L_body[rows],
+                          self.L_space[rows], self.kinetic[rows], pick(self.potential), pick(self.work), self.total[rows],
+                          {name: v[rows] for name, v in self.invariants.items()}, pick(self.euler_angles))
+
+    def summary(self) -> RunSummary:
+        n = self.t.shape[0]
+        return RunSummary(self.scene, self.stats, n, float(self.t[0]) if n else 0.0, float(self.t[-1]) if n else 0.0, self.max_drift())
+
+
+@dataclass
+class RunSummary:
+    """What reports say about a run without holding its samples (a streamed run has none)."""
+
+    scene: Scene
+    stats: RunStats
+    samples: int
+    start: float  # s, first sample
+    end: float  # s, last valid sample
+    drift: dict[str, float]  # max |relative drift| per invariant
+
+    def max_drift(self) -> dict[str, float]:
+        return self.drift
+
+
+@dataclass(frozen=True)
+class Reference:
+    """The values at the run's first sample that the drifts are measured from (principal frame)."""
+
+    L_p: np.ndarray  # body L₀
+    L_space: np.ndarray  # space L₀
+    L_norm: float  # |L₀|
+    invariant_energy: float  # H₀ = T₀ + V₀ − W₀
+    energy_scale: float  # max(|H₀|, T₀ + |V₀|)
+
 
 def build_trajectory(scene: Scene, solution: Solution, stats: RunStats, euler_angles: bool = False) -> Trajectory:
     """Diagnostics of the valid part of ``solution``, converted to the user's frames.
     Near a blow-up a finite state can have an overflowing energy: it is reported as inf."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        return _build(scene, solution, stats, euler_angles)
-
-
-def _build(scene: Scene, solution: Solution, stats: RunStats, euler_angles: bool) -> Trajectory:
     n = solution.valid
-    t = solution.t[:n]
-    q_p = solution.state[:n, 0:4]
-    w_p = solution.state[:n, 4:7]
-    work = solution.state[:n, 7]
+    with np.errstate(over="ignore", invalid="ignore"):
+        return build_chunk(scene, stats, solution.t[:n], solution.state[:n], None, euler_angles, None)
 
+
+def build_chunk(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray, reference: Reference | None,
+                euler_angles: bool, previous_angles: np.ndarray | None) -> Trajectory:
+    """The diagnostics of consecutive samples ``state`` (principal frame) of a run: drifts from
+    ``reference`` (None: this chunk starts the run), Euler angles unwrapped on from
+    ``previous_angles`` (the last angles of the previous chunk)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _build(scene, stats, t, state, reference, euler_angles, previous_angles)
+
+
+def reference_of(scene: Scene, state0: np.ndarray) -> Reference:
+    """The ``Reference`` of a run that starts in ``state0`` (one row, principal frame)."""
+    chunk = _quantities(scene, state0[None, :])
+    unit_q, L_p, L_space, kinetic, potential, _, invariant_energy = chunk
+    v0 = abs(float(potential[0])) if potential is not None else 0.0
+    h0 = float(invariant_energy[0])
+    return Reference(L_p[0].copy(), L_space[0].copy(), float(np.linalg.norm(L_p[0])), h0, max(abs(h0), float(kinetic[0]) + v0))
+
+
+def _quantities(scene: Scene, state: np.ndarray):
+    q_p, w_p, work = state[:, 0:4], state[:, 4:7], state[:, 7]
     unit_q = q_p / np.linalg.norm(q_p, axis=1, keepdims=True)
     L_p = w_p * scene.moments
     L_space = quat.rotate_to_space_array(unit_q, L_p)
     kinetic = 0.5 * np.sum(w_p * L_p, axis=1)
     potential = _potential(scene, unit_q) if scene.has_potential else None
     total = kinetic if potential is None else kinetic + potential
+    return unit_q, L_p, L_space, kinetic, potential, total, total - work
+
+
+def _build(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray, reference: Reference | None,
+           euler_angles: bool, previous_angles: np.ndarray | None) -> Trajectory:
+    q_p, w_p, work = state[:, 0:4], state[:, 4:7], state[:, 7]
+    unit_q, L_p, L_space, kinetic, potential, total, invariant_energy = _quantities(scene, state)
 
     if scene.is_principal:
         q_user, w_user, L_user = q_p, w_p, L_p
     else:
         q_user = quat.multiply_array(q_p, quat.conjugate_array(scene.axes_quaternion))
-        w_user, L_user = w_p @ scene.axes.T, L_p @ scene.axes.T
+        w_user, L_user = _rows_times(w_p, scene.axes.T), _rows_times(L_p, scene.axes.T)
 
-    invariants = _drifts(scene, q_p, L_p, L_space, total - work, kinetic, potential)
+    if reference is None and len(state):
+        reference = reference_of(scene, state[0])
+    drift = _drifts(scene, q_p, L_p, L_space, invariant_energy, reference)
     return Trajectory(
         scene=scene,
         stats=stats,
@@ -100,47 +209,39 @@ def _build(scene: Scene, solution: Solution, stats: RunStats, euler_angles: bool
         potential=potential,
         work=work if scene.has_work else None,
         total=total,
-        invariants=invariants,
-        euler_angles=_continuous_euler_angles(q_user) if euler_angles else None,
+        invariants=drift,
+        euler_angles=_continuous_euler_angles(q_user, previous_angles) if euler_angles else None,
     )
 
 
-def _continuous_euler_angles(q: np.ndarray) -> np.ndarray:
-    """3-1-3 angles along the run with ψ and φ unwrapped (continuous in time, not cut at ±π)."""
+def _continuous_euler_angles(q: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    """3-1-3 angles along the run with ψ and φ unwrapped (continuous in time, not cut at ±π),
+    continuing from ``previous`` (the angles of the sample before ``q``) when given."""
     angles = quat.to_euler_313(q / np.linalg.norm(q, axis=1, keepdims=True))
+    if previous is not None:
+        angles = np.vstack([previous[None, :], angles])
     angles[:, 0] = np.unwrap(angles[:, 0])
     angles[:, 2] = np.unwrap(angles[:, 2])
-    return angles
+    return angles[1:] if previous is not None else angles
 
 
 def _potential(scene: Scene, unit_q: np.ndarray) -> np.ndarray:
     v = np.zeros(unit_q.shape[0])
     for row in scene.loads.forces:
-        v -= quat.rotate_to_space_array(unit_q, np.broadcast_to(row[:3], (unit_q.shape[0], 3))) @ row[3:]
+        v -= _rows_times(quat.rotate_to_space_array(unit_q, np.broadcast_to(row[:3], (unit_q.shape[0], 3))), row[3:])
     return v
 
 
-def _relative(x: np.ndarray, scale: float) -> np.ndarray:
-    return x / scale if scale > 0.0 else x
+def _rows_times(rows: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """``rows @ matrix`` for (N, 3) rows and a 3×3 matrix or 3-vector, without BLAS: its threads
+    busy-wait against the recording's encoder thread (measured 25× slower on a loaded 2-core machine)."""
+    return np.einsum("ij,j...->i...", rows, matrix)
 
 
-def _drifts(scene: Scene, q_p, L_p, L_space, invariant_energy, kinetic, potential) -> dict[str, np.ndarray]:
-    if not len(q_p):
+def _drifts(scene: Scene, q_p, L_p, L_space, invariant_energy, reference: Reference | None) -> dict[str, np.ndarray]:
+    """Relative drift of each of the scene's invariants (``rotlab.invariants``) from ``reference``."""
+    if not len(q_p) or reference is None:
         return {name: np.zeros(0) for name in scene.invariants}
-    L0 = float(np.linalg.norm(L_p[0]))
-    e_scale = max(abs(float(invariant_energy[0])), float(kinetic[0]) + (abs(float(potential[0])) if potential is not None else 0.0))
-    out: dict[str, np.ndarray] = {}
-    for name in scene.invariants:
-        if name == "energy":
-            out[name] = _relative(invariant_energy - invariant_energy[0], e_scale)
-        elif name == "quaternion_norm":
-            out[name] = np.linalg.norm(q_p, axis=1) - 1.0
-        elif name == "L_norm":
-            out[name] = _relative(np.linalg.norm(L_p, axis=1) - L0, L0)
-        elif name == "L_space":
-            out[name] = _relative(np.linalg.norm(L_space - L_space[0], axis=1), L0)
-        elif name == "L_vertical":
-            out[name] = _relative((L_space - L_space[0]) @ scene.field_direction, L0)
-        elif name == "L_symmetry":
-            out[name] = _relative((L_p - L_p[0]) @ scene.symmetry_axis, L0)
-    return out
+    series = invariants.Series(q_p, L_p, L_space, invariant_energy, reference.invariant_energy, reference.L_p, reference.L_space,
+                               reference.energy_scale, reference.L_norm, scene.field_direction, scene.symmetry_axis)
+    return invariants.drifts(scene.invariants, series)

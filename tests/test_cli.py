@@ -53,7 +53,8 @@ def test_new_prints_a_valid_commented_template(cli, tmp_path, kind):
 
 def test_new_unknown_kind(cli):
     result = cli("new", "kovalevskaya")
-    assert result.exit_code == 2 and "euler, lagrange, general" in result.stderr
+    assert result.exit_code == 2 and "'euler', 'lagrange', 'general'" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
 
 
 def test_help_is_fast_and_imports_nothing_heavy():

@@ -102,7 +102,7 @@ def test_blow_up_stops_with_a_message_and_keeps_valid_samples(cli, write, tmp_pa
     path = write(
         "boom.toml",
         "[body]\nprincipal_moments = [1, 1, 1]\n[initial]\nomega = [0, 0, 1]\n"
-        '[[loads]]\ntype = "torque_table"\nframe = "body"\ntimes = [0.5, 0.6]\nvalues = [[1e308, 1e308, 0], [1e308, 1e308, 0]]\n'
+        '[[loads]]\ntype = "torque_table"\nframe = "body"\ntimes = [0.5, 0.6]\nvalues = [[1e30, 1e30, 0], [1e30, 1e30, 0]]\n'
         "[time]\nend = 1.0\nsample_rate = 100\n[solver]\nmethod = \"dop853\"\n",
     )
     result = cli("run", str(path), "-o", "boom.rrd")

@@ -89,7 +89,7 @@ def test_failed_write_leaves_nothing_and_keeps_existing_file(tmp_path, monkeypat
     def boom(*args, **kwargs):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(writer, "_write_series", boom)
+    monkeypatch.setattr(writer, "_write_full_rate", boom)
     from rotlab.errors import RunFailure
 
     with pytest.raises(RunFailure, match="could not write the recording.*disk full"):

@@ -31,7 +31,7 @@ def test_adaptive_method_adapts_where_a_fixed_step_is_refused():
 def test_failed_run_never_replaces_an_existing_recording(cli, write, tmp_path):
     (tmp_path / "out.rrd").write_bytes(b"a good recording")
     path = write("boom.toml", VALID_BODY + '[initial]\nomega = [0, 0, 1]\n[[loads]]\ntype = "torque"\nframe = "body"\n'
-                 'value = [1e308, 1e308, 0]\nwindow = { on = 0.5, off = 1.0 }\n[time]\nend = 1.0\nsample_rate = 100\n'
+                 'value = [1e30, 1e30, 0]\nwindow = { on = 0.5, off = 1.0 }\n[time]\nend = 1.0\nsample_rate = 100\n'
                  '[solver]\nmethod = "dop853"\n')
     result = cli("run", str(path), "-o", "out.rrd")
     assert result.exit_code == 1
@@ -46,7 +46,7 @@ def _rerun() -> str:
 def test_ctrl_c_leaves_a_valid_partial_recording_or_none(tmp_path):
     config = tmp_path / "long.toml"
     config.write_text(VALID_BODY + "[initial]\nomega = [0.1, 2.0, 0.1]\n[time]\nend = 100000.0\nsample_rate = 1\n"
-                      '[solver]\nmethod = "rk4"\nstep = 1e-4\n')
+                      '[solver]\nmethod = "rk4"\nstep = 1e-4\nmax_steps = 2_000_000_000\n')
     proc = subprocess.Popen([sys.executable, "-m", "rotlab", "run", str(config), "-o", str(tmp_path / "long.rrd")],
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(6.0)  # imports, cached kernels, then ~10⁸ steps/s·… of stepping

@@ -9,7 +9,8 @@ import pyarrow.parquet as pq
 import pytest
 
 import rotlab
-from rotlab.sweep.cases import expand, parse_path
+from rotlab.config.paths import parse_key_path
+from rotlab.sweep.cases import expand
 from rotlab.sweep.runner import plan, run_sweep, run_sweep_case
 from tests.conftest import CONFIGS, VALID_BODY
 
@@ -32,8 +33,8 @@ samples = 2
 
 
 def test_parse_path():
-    assert parse_path("loads[0].value[2]") == ["loads", 0, "value", 2]
-    assert parse_path("body.mass") == ["body", "mass"]
+    assert parse_key_path("loads[0].value[2]", "here") == ["loads", 0, "value", 2]
+    assert parse_key_path("body.mass", "here") == ["body", "mass"]
 
 
 def test_cases_are_grid_times_draws_and_reproducible(write):
@@ -108,10 +109,10 @@ def test_dask_local_cluster_gives_the_same_results(write):
 
 def test_unreachable_dask_scheduler_is_bad_input(write, monkeypatch):
     pytest.importorskip("dask.distributed")
+    from rotlab import cluster
     from rotlab.errors import InputError
-    from rotlab.sweep import runner
 
-    monkeypatch.setattr(runner, "DASK_CONNECT_TIMEOUT", "2s")
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "2s")
 
     p = plan(write("s.toml", SWEEP))
     with pytest.raises(InputError, match="cannot reach a Dask scheduler"):
@@ -121,3 +122,28 @@ def test_unreachable_dask_scheduler_is_bad_input(write, monkeypatch):
 def test_shipped_sweep_config_validates():
     p = plan(CONFIGS / "sweep_flip.toml")
     assert len(p.cases) == 12
+
+
+@pytest.mark.parametrize(("key", "expected"), [("initial.omgea[0]", "unknown key 'omgea': did you mean 'omega'?"),
+                                               ("bdy.mass", "unknown key 'bdy': did you mean 'body'?"),
+                                               ("loads[0].value", "index [0] is out of range")])
+def test_unknown_sweep_keys_say_the_closest_key(write, key, expected):
+    from rotlab.errors import InputError
+
+    text = SWEEP.replace('"initial.omega[0]" = [0.0, 0.5]', f'"{key}" = [1.0, 2.0]')
+    with pytest.raises(InputError, match=f"sweep.parameters.{key}: ".replace("[", r"\[").replace("]", r"\]").replace(".", r"\.")) as info:
+        plan(write("s.toml", text))
+    assert str(info.value).endswith(expected)
+
+
+def test_config_without_sweep_points_to_an_existing_readme_section(write):
+    from rotlab.errors import InputError
+    from tests.conftest import ROOT
+
+    with pytest.raises(InputError, match="no \\[sweep\\] section") as info:
+        plan(write("s.toml", VALID_BODY + "[time]\nend = 1.0\n"))
+    readme = ROOT / "README.md"
+    if readme.is_file():  # the README's scenario table has the [sweep] row the message points to
+        text = readme.read_text(encoding="utf-8")
+        assert "## Scenario files" in text and "| `[sweep]` |" in text
+    assert "'Scenario files'" in str(info.value)

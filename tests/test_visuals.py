@@ -82,3 +82,234 @@ def test_snapshot_refuses_bad_input(cli, tmp_path, euler):
     result = cli("snapshot", "missing.rrd")
     assert result.exit_code == 2 and "no such recording" in result.stderr
     assert not list(tmp_path.glob("*.png"))
+
+
+# --- #13: blueprints that show data, one colour language, labels that render ------------------
+
+from rerun.chunk import RrdReader  # noqa: E402
+
+from rotlab.recording import style  # noqa: E402
+from rotlab.recording.reader import entity_paths, query_matches, view_queries  # noqa: E402
+
+SHIPPED = ("euler", "lagrange", "dzhanibekov", "general")
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    """Every shipped config (2 s of it) written as a recording: name → (trajectory, path)."""
+    out = {}
+    folder = tmp_path_factory.mktemp("shipped")
+    for name in SHIPPED:
+        traj = rotlab.simulate(rotlab.load(CONFIGS / f"{name}.toml", duration=2.0))
+        out[name] = (traj, write_recording(traj, folder / f"{name}.rrd"))
+    return out
+
+
+def _assert_every_view_shows_data(path):
+    entities = entity_paths(path)
+    views = view_queries(path)
+    assert views, f"{path}: no blueprint"
+    for name, origin, query in views.values():
+        assert query_matches(query, origin, entities), f"{path}: view {name!r} (origin {origin}, query {query}) shows nothing"
+
+
+def test_query_matching_follows_rerun_rules():
+    entities = {"/cases/0/omega", "/cases/1/omega", "/sweep"}
+    assert query_matches(["/cases/*/omega"], "/cases", entities) == set()  # the old sweep blueprint's bug
+    assert query_matches(["$origin/**"], "/cases", entities) == {"/cases/0/omega", "/cases/1/omega"}
+    assert query_matches(["+ /cases/**", "- /cases/1/**"], "/", entities) == {"/cases/0/omega"}
+
+
+def test_every_view_of_every_run_recording_shows_data(recordings):
+    for _, path in recordings.values():
+        _assert_every_view_shows_data(path)
+
+
+def _static_component(path, entity, component):
+    for chunk in RrdReader(str(path)).stream().filter(content=entity, is_static=True, components=component).to_chunks():
+        batch = chunk.to_record_batch()
+        return batch.column(batch.schema.get_field_index(component)).to_pylist()[-1]
+    raise KeyError(f"no static {component} at {entity}")
+
+
+def _rgb(packed: int) -> tuple[int, int, int]:
+    return (packed >> 24) & 255, (packed >> 16) & 255, (packed >> 8) & 255
+
+
+def test_components_are_red_green_blue_and_energies_distinct(recordings):
+    for name, (_, path) in recordings.items():
+        for entity in (layout.OMEGA, layout.L_SPACE):
+            assert [_rgb(c) for c in _static_component(path, entity, "SeriesLines:colors")] == style.XYZ, (name, entity)
+        axes = [_rgb(c) for c in _static_component(path, layout.BODY_AXES, "Arrows3D:colors")]
+        assert axes == style.XYZ, name
+    general = recordings["general"][1]
+    if layout.LOAD_TORQUE_BODY in entity_paths(general):
+        assert [_rgb(c) for c in _static_component(general, layout.LOAD_TORQUE_BODY, "SeriesLines:colors")] == style.XYZ
+    energy = [_rgb(c) for c in _static_component(general, layout.ENERGY, "SeriesLines:colors")]
+    names = _static_component(general, layout.ENERGY, "SeriesLines:names")
+    assert names == ["T", "V", "T+V", "W", "T+V−W"]
+    for i in range(len(energy)):  # five hues, pairwise far apart (RGB distance > 100 of 441)
+        for j in range(i):
+            assert np.linalg.norm(np.subtract(energy[i], energy[j])) > 100, (names[i], names[j])
+
+
+def test_labels_are_short_symbols_the_font_draws(recordings):
+    for name, (_, path) in recordings.items():
+        for chunk in RrdReader(str(path)).stream().to_chunks():
+            batch = chunk.to_record_batch()
+            for column in batch.schema.names:
+                if column.endswith(":labels"):
+                    for row in batch.column(column).to_pylist():
+                        for label in row or []:
+                            style.label_3d(label)  # raises on a long label or a missing glyph
+                if column.endswith(":names") or column.endswith("TextDocument:text") or column.endswith(":display_name"):
+                    for row in batch.column(column).to_pylist():
+                        for text in (row if isinstance(row, list) else [row]):
+                            style.check_text(str(text).replace("\n", " ").replace("\t", " "))
+
+
+def test_label_rules_refuse_what_the_viewer_cannot_show():
+    with pytest.raises(ValueError, match="glyph"):
+        style.check_text("plane ⊥ L")
+    with pytest.raises(ValueError, match="longer"):
+        style.label_3d("ω ×0.0009")
+    assert style.label_3d("mg") == "mg"
+
+
+def test_legends_sit_above_the_data(recordings):
+    from rotlab.recording.writer import series
+
+    for name, (traj, _) in recordings.items():
+        all_series = series(traj)
+        for plots in layout.plots(all_series, "rad", 0.0).values():
+            for plot in plots:
+                if not plot.legend or plot.y_range is None:
+                    continue
+                values = np.column_stack([v[0] for e, v in all_series.items() if e == plot.origin or e.startswith(plot.origin + "/")])
+                finite = values[np.isfinite(values)]
+                span = max(float(np.ptp(finite)), 1e-300)
+                assert plot.y_range[1] >= finite.max() + 0.4 * span - 1e-12 * abs(finite.max()), (name, plot.name)
+
+
+def test_euler_angles_in_degrees_for_a_degree_scenario(recordings):
+    traj, path = recordings["lagrange"]  # euler_313_deg = [0, 25, 0]
+    _, theta = read_series(path, layout.EULER_THETA)
+    assert theta[0, 0] == pytest.approx(25.0, abs=1e-9)
+    _, psi = read_series(path, layout.EULER_PSI)
+    assert np.all(np.abs(psi) <= 180.0)
+    _, rate = read_series(path, layout.EULER_SPIN_RATE)
+    psi_dot = np.gradient(traj.euler_angles[:, 0], traj.t)  # φ̇ = r − ψ̇ cos θ, ψ̇ by differences
+    expected = np.degrees(traj.omega[:, 2] - psi_dot * np.cos(traj.euler_angles[:, 1]))
+    np.testing.assert_allclose(rate[2:-2, 0], expected[2:-2], rtol=2e-3)
+
+
+def test_energy_ellipsoid_touches_the_invariable_plane_at_omega(euler):
+    """At every sample the tip s·ω lies on the energy ellipsoid x·Ix = s²·2T (body frame) and the
+    ellipsoid's normal there, I ω, is along L: the plane ⊥ L through s·ω is tangent to it."""
+    from rotlab.recording.visuals import energy_ellipsoid
+
+    views = _views(euler)
+    s = views.omega_scale
+    _, semi, _ = energy_ellipsoid(euler, s)
+    tip = euler.omega * s  # principal = user's frame for this config
+    np.testing.assert_allclose(np.sum((tip / semi) ** 2, axis=1), 1.0, rtol=1e-9)
+    normal = tip * euler.scene.moments
+    cosine = np.einsum("ij,ij->i", normal, euler.L_body) / np.linalg.norm(normal, axis=1) / np.linalg.norm(euler.L_body, axis=1)
+    np.testing.assert_allclose(cosine, 1.0, atol=1e-12)
+
+
+def test_load_power_integrates_to_the_work(recordings):
+    """The loads' torque drawn in the recording, dotted with ω and integrated (trapezoid, 200
+    samples/s), equals the work W the integrator accumulated: to 1e-3 of max |W|.  The run ends at
+    t = 2 s where the space-frame pulse switches on: the last sample (right limit) is left out."""
+    traj, path = recordings["general"]
+    t, power = read_series(path, layout.LOAD_POWER)
+    t, power = t[:-1], power[:-1, 0]
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])
+    np.testing.assert_allclose(work, traj.work[:-1] - traj.work[0], atol=1e-3 * np.max(np.abs(traj.work)))
+    _, body = read_series(path, layout.LOAD_TORQUE_BODY)
+    _, space = read_series(path, layout.LOAD_TORQUE_SPACE)
+    unit = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
+    from rotlab.core import quaternion as quat
+
+    np.testing.assert_allclose(quat.rotate_to_space_array(unit, body), space, atol=1e-12)
+
+
+def test_each_load_has_an_arrow_at_its_point(recordings):
+    traj, path = recordings["general"]
+    _, origins = read_series(path, f"{layout.LOADS_3D}/mg/arrow", "Arrows3D:origins")
+    from rotlab.core import quaternion as quat
+
+    unit = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
+    r_c = np.asarray(traj.scene.scenario.body.center_of_mass)
+    expected = quat.rotate_to_space_array(unit, np.broadcast_to(r_c, (len(unit), 3)))
+    np.testing.assert_allclose(origins.reshape(-1, 3), expected, atol=1e-6)  # float32 in Rerun
+    for symbol in ("M1", "M2", "M3", "M4"):
+        read_series(path, f"{layout.LOADS_3D}/{symbol}/arrow", "Arrows3D:vectors")
+
+
+def test_trails_have_a_trailing_window_in_the_blueprint(recordings):
+    _, path = recordings["euler"]
+    names = set()
+    for chunk in RrdReader(str(path)).stream(store=RrdReader(str(path)).blueprints()[0]).to_chunks():
+        names.update(chunk.to_record_batch().schema.names)
+    assert any("VisibleTimeRange" in n for n in names)
+    read_series(path, layout.AXIS_TIP, "Points3D:positions")
+    read_series(path, layout.HERPOLHODE_TRAIL, "Points3D:positions")
+
+
+def test_labels_never_overlap_in_the_default_camera_view(recordings):
+    """Every label drawn at a sample (axes, ω, L, g, loads), projected with the default camera the
+    blueprint sets, keeps its box clear of every other: checked at every sample of every config."""
+    from rotlab.recording import labels
+    from rotlab.recording.writer import _views
+
+    for name, (traj, path) in recordings.items():
+        from rotlab.recording.visuals import reach
+
+        eye, target = labels.camera(reach(traj, _views(traj)))
+        reader = RrdReader(str(path))
+        set_eye = [chunk.to_record_batch().column("EyeControls3D:position").to_pylist()[-1][0]
+                   for chunk in reader.stream(store=reader.blueprints()[0]).to_chunks()
+                   if "EyeControls3D:position" in chunk.to_record_batch().schema.names]
+        np.testing.assert_allclose(set_eye, [eye], rtol=1e-6)  # the labels were laid out for the view's camera
+        texts = _static_component(path, layout.LABELS_3D, "Points3D:labels")
+        _, positions = read_series(path, layout.LABELS_3D, "Points3D:positions")
+        positions = positions.reshape(len(traj.t), len(texts), 3)
+        points = [positions[:, k] for k in range(len(texts))]
+        omega = positions[:, texts.index("ω")]
+        shown = 0
+        for i in range(len(texts)):
+            for j in range(i):
+                a, b = labels.project(points[i], eye, target), labels.project(points[j], eye, target)
+                both = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
+                shown += int(both.sum())
+                assert not np.any(labels.overlaps(a, b, texts[i], texts[j]) & both), (name, texts[i], texts[j])
+        assert shown > 0, name
+        assert np.mean(np.isfinite(omega[:, 0])) > 0.5, f"{name}: the ω label is hidden most of the time"
+
+
+def test_animate_writes_a_gif_of_the_run(cli, tmp_path, recordings):
+    """`rotlab animate`: one frame per speed/fps seconds of the recording, frames that change."""
+    pytest.importorskip("matplotlib")
+    from PIL import Image
+
+    _, path = recordings["lagrange"]  # 2 s recorded
+    result = cli("animate", str(path), "-o", "top.gif", "--fps", "5", "--speed", "0.5", "--size", "320x320")
+    assert result.exit_code == 0, result.output
+    gif = Image.open(tmp_path / "top.gif")
+    assert gif.n_frames == 21 and gif.size == (320, 320)  # t = 0, 0.1, …, 2.0 s
+    frames = []
+    for k in (0, 10):
+        gif.seek(k)
+        frames.append(np.asarray(gif.convert("L"), dtype=float))
+    assert np.abs(frames[0] - frames[1]).mean() > 0.1 and frames[1].std() > 5.0
+
+
+def test_animate_refuses_bad_input(cli, tmp_path, recordings):
+    _, path = recordings["euler"]
+    result = cli("animate", str(path), "-o", "clip.avi")
+    assert result.exit_code == 2 and ".gif or .mp4" in result.stderr
+    result = cli("animate", str(path), "--speed", "1e-6")
+    assert result.exit_code == 2 and "--speed" in result.stderr
+    assert not list(tmp_path.glob("*.gif"))

@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-SECTIONS = ("wp", "throughput", "runs", "drift")
+SECTIONS = ("wp", "throughput", "overhead", "runs", "drift")
 
 
 def bench(
@@ -20,7 +20,9 @@ def bench(
     only: Annotated[Optional[str], typer.Option("--only", help=f"Comma-separated sections: {', '.join(SECTIONS)} (default all).")] = None,
 ) -> None:
     """Benchmark rotlab against scipy solve_ivp and the seeds' RK4: work-precision on the test
-    problems, throughput, `rotlab run` cold/warm wall time, long-run energy error."""
+    problems (with `auto` as its own row, and the lead over rotlab's dop853), throughput, the
+    per-call overhead of rotlab.simulate, `rotlab run` cold/warm wall time against the import of
+    its dependencies, long-run energy error."""
     import time
 
     from rotlab.bench import report, runner
@@ -63,12 +65,21 @@ def bench(
             extra.extend(ratio_rows)
             typer.echo(report.ratio_table(ratio_rows))
             typer.echo("")
+        lead_rows = runner.leads(records)
+        extra.extend(lead_rows)
+        typer.echo(report.lead_table(lead_rows))
+        typer.echo("")
     if "throughput" in sections:
         rows = runner.kernel_throughput(options)
         recording = runner.recording_throughput(options)
         extra.extend(rows)
         extra.append(recording)
         typer.echo(report.throughput_table(rows, recording))
+        typer.echo("")
+    if "overhead" in sections:
+        rows = runner.call_overhead(options)
+        extra.extend(rows)
+        typer.echo(report.overhead_table(rows))
         typer.echo("")
     if "runs" in sections:
         rows = runner.run_timing(options)

@@ -7,8 +7,8 @@ work W):
     ṗ = (B − C)/A · q r + M1/A,  q̇ = (C − A)/B · r p + M2/B,  ṙ = (A − B)/C · p q + M3/C
 
 with the torque M of the scene's loads (``rotlab.scene.loads``: constant space-frame forces,
-torque terms with windows, tables, damping) — term by term the formulas of
-``rotlab.core.dynamics.rhs``.  The right-hand side is plain Python on floats (``y.tolist()``
+torque terms with windows, tables, damping; not expressions) — term by term the formulas of
+``rotlab.core.torques``: the one deliberate copy, so that the peers run what a user would write.  The right-hand side is plain Python on floats (``y.tolist()``
 first): on 7 components that is faster than NumPy vector operations, so the peers get the
 quickest right-hand side a Python user would reasonably write, and the ratios are lower bounds.
 
@@ -54,6 +54,8 @@ def make_rhs(scene: Scene) -> Callable[[float, np.ndarray], np.ndarray]:
     ea, eb, ec = (b - c) / a, (c - a) / b, (a - b) / c
     ia, ib, ic = 1.0 / a, 1.0 / b, 1.0 / c
     loads = scene.loads
+    if loads.expressions is not None or loads.user is not None:
+        raise ValueError("peers write the fixed load kinds by hand; expression loads and Python torques have no peer right-hand side")
     forces = [tuple(float(v) for v in row) for row in loads.forces]
     terms = [tuple(float(v) for v in row) for row in loads.terms if np.any(row[3:9] != 0.0)]
     tables = [(row[0], row[1], row[2], loads.table_t[int(row[3]):int(row[4])].tolist(), loads.table_v[int(row[3]):int(row[4])].tolist())

@@ -66,9 +66,9 @@ import numpy as np
 from rotlab.config.models import Scenario
 from rotlab.core import quaternion as quat
 from rotlab.scene.scene import Scene
+from rotlab.shipped import shipped_configs
 
-ROOT = Path(__file__).resolve().parents[2]
-CONFIGS = ROOT / "configs"
+CONFIGS = shipped_configs()
 
 STATE, ENERGY, KOVALEVSKAYA = "state", "energy", "kovalevskaya"
 

@@ -8,7 +8,11 @@ import math
 from pathlib import Path
 from typing import Any
 
-from rotlab.bench.runner import THRESHOLD, Record
+from rotlab.bench.runner import DEPENDENCIES, THRESHOLD, Record
+
+
+def runner_dependencies() -> tuple[str, ...]:
+    return DEPENDENCIES
 
 
 def _e(x: float | None) -> str:
@@ -31,7 +35,7 @@ def work_precision_table(records: list[Record], problem: str, title: str = "", r
     lines = [f"== {problem}: {title}", f"   metric: {metric}; reference: {reference}"] if title else [f"== {problem}"]
     lines.append(f"   {'method':24} {'setting':>12} {'max error':>10} {'time':>10} {'×':>3} {'compile':>8} {'steps':>10} {'f evals':>10} {'|ΔH|/H':>9} {'||Λ|-1|':>9}")
     for r in rs:
-        fail = f"  ({r.failure[:60]})" if r.failure else ""
+        fail = f"  ({r.failure[:60]})" if r.failure else (f"  → {r.chosen}" if r.chosen else "")
         lines.append(
             f"   {r.method:24} {r.setting:>12} {_e(r.max_error):>10} {_s(r.seconds):>10} {r.repeats:>3} {r.compile_seconds:8.2f} "
             f"{'' if r.steps is None else r.steps:>10} {'' if r.rhs_evaluations is None else r.rhs_evaluations:>10} "
@@ -48,11 +52,12 @@ def _side(best: dict[str, Any] | None) -> str:
     return f"{best['method']} {best['setting']} {_s(best['seconds'])} (interp. {_s(best['interpolated_seconds'])})"
 
 
-def _ratio(row: dict[str, Any], key: str) -> str:
+def _ratio(row: dict[str, Any], key: str, pattern: str = "{:,.0f}× (interp. {:,.0f}×)", invert: bool = False) -> str:
+    """A measured ratio and its interpolated twin (``key`` + "_interpolated"), or "—"."""
     x, y = row.get(key), row.get(key + "_interpolated")
     if x is None:
         return "—"
-    return f"{x:,.0f}× (interp. {y:,.0f}×)"
+    return pattern.format(1.0 / x, 1.0 / y) if invert else pattern.format(x, y)
 
 
 def ratio_table(rows: list[dict[str, Any]]) -> str:
@@ -64,11 +69,51 @@ def ratio_table(rows: list[dict[str, Any]]) -> str:
         lines.append(f"   {row['problem']} ({row['metric']}):")
         lines.append(f"      rotlab best       {_side(row['rotlab'])}")
         lines.append(f"      rotlab stepping   {_side(row['rotlab_stepping'])}")
+        lines.append(f"      auto              {_side(row['auto'])}")
         lines.append(f"      scipy best        {_side(row['scipy'])}")
         lines.append(f"      scipy DOP853      {_side(row['scipy_dop853'])}")
         lines.append(f"      seed RK4          {_side(row['seed'])}")
         lines.append(f"      rotlab/scipy: {_ratio(row, 'rotlab_vs_scipy')}   rotlab/scipy DOP853: {_ratio(row, 'rotlab_vs_scipy_dop853')}   "
                      f"stepping/scipy: {_ratio(row, 'rotlab_stepping_vs_scipy')}   rotlab/seed: {_ratio(row, 'rotlab_vs_seed')}")
+        lines.append(f"      auto/scipy: {_ratio(row, 'auto_vs_scipy')}   auto's time / rotlab best's: {_ratio(row, 'rotlab_vs_auto', '{:.2f} (interp. {:.2f})', invert=True)}")
+    return "\n".join(lines)
+
+
+def lead_table(rows: list[dict[str, Any]]) -> str:
+    """rotlab's best other method and ``auto`` against rotlab's own dop853 at each threshold."""
+    if not rows:
+        return ""
+    thresholds = list(dict.fromkeys(r["threshold"] for r in rows))
+    lines = ["== lead over rotlab's dop853 (a compiled DOP853): dop853's time / the other's, at max error ≤ threshold "
+             "(fastest run reaching it; log-log interpolated in parentheses)",
+             f"   {'problem':20} {'threshold':>9}  {'dop853':>30}  {'rotlab best (not dop853)':>44}  {'lead':>16}  {'auto':>12}  {'lead':>16}"]
+    for threshold in thresholds:
+        for r in (x for x in rows if x["threshold"] == threshold):
+            lines.append(f"   {r['problem']:20} {threshold:>9.0e}  {_short(r['dop853']):>30}  {_short(r['best'], True):>44}  "
+                         f"{_lead(r, 'lead_best'):>16}  {_short(r['auto'], False):>12}  {_lead(r, 'lead_auto'):>16}")
+    return "\n".join(lines)
+
+
+def _short(best: dict[str, Any] | None, name: bool = True) -> str:
+    if best is None:
+        return "no runs"
+    if not best["reached"]:
+        return f"not reached (best {_e(best['best_error'])})"
+    return (f"{best['method']} {best['setting']} " if name else "") + _s(best["seconds"])
+
+
+def _lead(row: dict[str, Any], key: str) -> str:
+    return _ratio(row, key, "{:.2f}× ({:.2f}×)")
+
+
+def overhead_table(rows: list[dict[str, Any]]) -> str:
+    if not rows:
+        return ""
+    lines = [f"== per-call overhead of rotlab.simulate ({rows[0]['setting']}; medians of {rows[0]['repeats']} interleaved rounds)",
+             f"   {'config':20} {'method':8} {'solve':>10} {'choose':>10} {'scene+choose+solve':>19} {'simulate':>10} {'simulate − solve':>17}"]
+    for r in rows:
+        lines.append(f"   {r['problem']:20} {r['method']:8} {_s(r['solve_seconds']):>10} {_s(r['choose_seconds']):>10} "
+                     f"{_s(r['pipeline_seconds']):>19} {_s(r['simulate_seconds']):>10} {_s(r['overhead_seconds']):>17}")
     return "\n".join(lines)
 
 
@@ -87,9 +132,11 @@ def throughput_table(rows: list[dict[str, Any]], recording: dict[str, Any] | Non
 
 
 def run_timing_table(rows: list[dict[str, Any]]) -> str:
-    lines = ["== `rotlab run CONFIG -q` end to end (subprocess): cold = empty NUMBA_CACHE_DIR, warm = cache filled (medians)"]
+    lines = ["== `rotlab run CONFIG -q` end to end (subprocess): cold = empty NUMBA_CACHE_DIR, warm = cache filled (medians); "
+             "floor = `python -c 'import " + ", ".join(runner_dependencies()) + "'`, run beside each warm run"]
     for r in rows:
-        lines.append(f"   {r['problem']:20} cold {r['cold_seconds']:6.2f} s   warm {r['warm_seconds']:6.2f} s")
+        floor = f"   floor {r['floor_seconds']:6.2f} s   warm − floor {r['warm_over_floor_seconds']:6.2f} s" if "floor_seconds" in r else ""
+        lines.append(f"   {r['problem']:20} cold {r['cold_seconds']:6.2f} s   warm {r['warm_seconds']:6.2f} s{floor}")
     return "\n".join(lines)
 
 

@@ -46,6 +46,8 @@ from rotlab.bench.problems import (
 )
 
 THRESHOLD = 1e-10  # the error at which rotlab and scipy are compared
+LEAD_THRESHOLDS = (1e-10, 1e-13)  # where rotlab's best is compared with its own dop853
+DEPENDENCIES = ("numpy", "scipy", "scipy.special", "numba", "rerun", "pydantic", "typer")  # what `rotlab run` imports
 
 
 @dataclass
@@ -54,7 +56,7 @@ class Options:
     repeats: int = 5
     run_budget: float = 3.0  # s: a series stops after a call this long
     record_budget: float = 5.0  # s: total time spent on the repeats of one record
-    stop_error: float = 1e-12  # a series stops once below this error
+    stop_error: float = 3e-14  # a series stops once below this error (below 1e-13: the dop853 lead there)
     fast_total: float = 0.2  # s: sub-4-ms runs are repeated up to 50 times within this
     decades_per_point: float = 1.0  # fixed-step series: error decades between points (order p)
     log: Callable[[str], None] = lambda line: None
@@ -62,7 +64,7 @@ class Options:
     @classmethod
     def make(cls, quick: bool, repeats: int | None, log: Callable[[str], None] = lambda line: None) -> Options:
         if quick:
-            return cls(quick=True, repeats=repeats or 3, run_budget=0.25, record_budget=0.5, stop_error=3e-11, fast_total=0.05,
+            return cls(quick=True, repeats=repeats or 3, run_budget=0.25, record_budget=0.5, stop_error=3e-14, fast_total=0.05,
                        decades_per_point=2.0, log=log)
         return cls(quick=False, repeats=repeats or 5, log=log)
 
@@ -94,6 +96,7 @@ class Record:
     failure: str | None = None
     reference: str = ""
     load_average: float | None = None  # 1-minute load average when the record was taken (shared machines)
+    chosen: str | None = None  # `auto` only: the method, order and step it ran, from its reason
 
     def to_json(self) -> dict[str, Any]:
         return {k: _finite_or_none(v) for k, v in asdict(self).items()}
@@ -137,7 +140,7 @@ class Series:
     method: str
     side: str
     settings: list[dict[str, Any]]
-    run: Callable[[dict[str, Any]], tuple[np.ndarray, int | None, int | None, str | None]]
+    run: Callable[[dict[str, Any]], tuple[np.ndarray, int | None, int | None, str | None, str | None]]
     order: int | None = None
     fixed_step: bool = False
     extra: dict[str, Any] = field(default_factory=dict)
@@ -179,12 +182,12 @@ def rotlab_series(scene, t: np.ndarray, options: Options) -> list[Series]:
             continue
         if name == "exact":
             out.append(Series("exact", "rotlab", [{"label": "-"}], _rotlab_runner(method, scene, t, lambda s: Settings())))
-        elif getattr(method, "adaptive", False):  # tolerance-driven: dop853, taylor
-            settings = [{"label": f"rtol={r:.0e}", "rtol": r} for r in _tolerances(6, 13, options.quick)]
+        elif method.adaptive:  # tolerance-driven: dop853, taylor (to 1e-15: the 1e-13 lead)
+            settings = [{"label": f"rtol={r:.0e}", "rtol": r} for r in _tolerances(6, 15, options.quick)]
             out.append(Series(name, "rotlab", settings,
                               _rotlab_runner(method, scene, t, lambda s: Settings(rtol=s["rtol"], atol=s["rtol"] * 1e-2, max_steps=10**10))))
         else:
-            orders = tuple(getattr(method, "orders", ())) or (None,)
+            orders = method.orders or (None,)
             for order in orders:
                 p = order if order is not None else method.order_of_accuracy
                 settings = [{"label": f"h={interval / n:.4g}", "step": interval / n, "substeps": n} for n in _substeps(scene, t, p, options.decades_per_point)]
@@ -192,6 +195,8 @@ def rotlab_series(scene, t: np.ndarray, options: Options) -> list[Series]:
                 out.append(Series(label, "rotlab", settings,
                                   _rotlab_runner(method, scene, t, lambda s, o=order: Settings(step=s["step"], order=o, max_steps=10**12)),
                                   order=p, fixed_step=True))
+    settings = [{"label": f"rtol={r:.0e}", "rtol": r} for r in _tolerances(6, 13, options.quick)]
+    out.append(Series("auto", "rotlab", settings, _auto_runner(scene, t)))
     return out
 
 
@@ -199,7 +204,24 @@ def _rotlab_runner(method, scene, t, settings_of):
     def run(setting: dict[str, Any]):
         solution = method.solve(scene, t, settings_of(setting), None)
         state = solution.state[:, :7] if solution.valid == t.shape[0] else np.full((t.shape[0], 7), np.nan)
-        return state, solution.steps or None, solution.rhs_evaluations or None, solution.failure
+        return state, solution.steps or None, solution.rhs_evaluations or None, solution.failure, None
+
+    return run
+
+
+def _auto_runner(scene, t):
+    """``auto`` as a user runs it: ``choose_method`` and the solve, both timed.  The untimed
+    warm-up call makes the choice; the timed calls find it in choose's cache, as a loop over
+    ``rotlab.simulate`` does (the cost of a fresh choice is in the ``overhead`` section)."""
+    from rotlab.methods.base import Settings
+    from rotlab.methods.choose import choose_method
+
+    def run(setting: dict[str, Any]):
+        method, why, settings = choose_method(scene, "auto", Settings(rtol=setting["rtol"], atol=setting["rtol"] * 1e-2, max_steps=10**10), t)
+        solution = method.solve(scene, t, settings, None)
+        state = solution.state[:, :7] if solution.valid == t.shape[0] else np.full((t.shape[0], 7), np.nan)
+        chosen = why.split(",")[0].removeprefix("auto: ")
+        return state, solution.steps or None, solution.rhs_evaluations or None, solution.failure, chosen
 
     return run
 
@@ -215,7 +237,7 @@ def peer_series(scene, t: np.ndarray, options: Options) -> list[Series]:
 
         def run(setting, method=method):
             sol = peer_mod.solve_scipy(method, scene, t, setting["rtol"], setting["rtol"] * 1e-2)
-            return sol.state, None, sol.rhs_evaluations, sol.failure
+            return sol.state, None, sol.rhs_evaluations, sol.failure, None
 
         out.append(Series(f"scipy:{method}", "scipy", settings, run))
     interval = float(t[1] - t[0])
@@ -223,7 +245,7 @@ def peer_series(scene, t: np.ndarray, options: Options) -> list[Series]:
 
     def run_seed(setting):
         sol = peer_mod.solve_seed_rk4(scene, t, setting["substeps"])
-        return sol.state, sol.steps, sol.rhs_evaluations, sol.failure
+        return sol.state, sol.steps, sol.rhs_evaluations, sol.failure, None
 
     out.append(Series(peer_mod.SEED_RK4, "seed", settings, run_seed, order=4, fixed_step=True))
     return out
@@ -287,7 +309,7 @@ def sweep(problem: Problem, series: Series, evaluate, options: Options, referenc
     """Run ``series`` setting by setting (see the module docstring for the stopping rules).
 
     When rotlab's ``exact`` is itself the reference, its error against the reference is ~0 by
-    construction: its record shows instead the distance to the independent check solution
+    construction: its record (and ``auto``'s, when it runs exact) shows instead the distance to the independent check solution
     (``Reference.check``), a conservative figure (it includes the check solution's own error)."""
     best = math.inf
     stalled = 0
@@ -295,27 +317,29 @@ def sweep(problem: Problem, series: Series, evaluate, options: Options, referenc
 
     for k, setting in enumerate(series.settings):
         try:
-            (state, steps, evals, failure), seconds, compile_s, repeats = timed(lambda: series.run(setting), options, warm_up=series.side == "rotlab")
+            (state, steps, evals, failure, chosen), seconds, compile_s, repeats = timed(lambda: series.run(setting), options, warm_up=series.side == "rotlab")
         except InputError as exc:  # e.g. a fixed step beyond the method's stability limit: refused, not run
             options.log(f"  {series.method:24} {setting['label']:>14}  refused: {exc}")
             continue
         metrics = evaluate(state)
         err = metrics.pop("max_error")
-        if series.method == "exact" and reference.uses_exact and reference.check is not None and err is not None:
+        runs_exact = series.method == "exact" or (chosen or "").startswith("exact")  # auto may run exact too
+        if runs_exact and reference.uses_exact and reference.check is not None and err is not None:
             err = max(err, reference.check)
         record = Record(
             problem=problem.name, method=series.method, setting=setting["label"], max_error=err, seconds=seconds,
             side=series.side, metric=problem.metric, series=series.method, order=series.order,
             step=setting.get("step"), rtol=setting.get("rtol"), repeats=repeats, compile_seconds=compile_s,
-            steps=steps, rhs_evaluations=evals, failure=failure, reference=reference.how, load_average=_load(), **metrics,
+            steps=steps, rhs_evaluations=evals, failure=failure, reference=reference.how, load_average=_load(), chosen=chosen, **metrics,
         )
-        options.log(f"  {series.method:24} {setting['label']:>14}  error {_fmt(err):>9}  {seconds:.3g} s ×{repeats}")
+        options.log(f"  {series.method:24} {setting['label']:>14}  error {_fmt(err):>9}  {seconds:.3g} s ×{repeats}" + (f"  → {chosen}" if chosen else ""))
         yield record
         if err is not None and math.isfinite(err):
             if err <= options.stop_error:
                 return
             # no progress: at the reference's / rounding's floor, or the error grows with the work
-            stalled = stalled + 1 if (err > 0.5 * best and best < 1e-8) or (err > best and best < 1e-4) else 0
+            # (not for auto: its error moves in steps when it switches method or order)
+            stalled = stalled + 1 if series.method != "auto" and ((err > 0.5 * best and best < 1e-8) or (err > best and best < 1e-4)) else 0
             best = min(best, err)
             if stalled >= 2:
                 return
@@ -380,20 +404,24 @@ def best_at(records: list[Record], threshold: float = THRESHOLD) -> dict[str, An
 
 def ratios(records: list[Record], threshold: float = THRESHOLD) -> list[dict[str, Any]]:
     """Per problem: rotlab's best vs scipy's best (any method; and DOP853 alone), at max error ≤
-    threshold, measured and interpolated; also rotlab without ``exact`` (time-stepping only)."""
+    threshold, measured and interpolated; also rotlab without ``exact`` (time-stepping only), and
+    ``auto`` (which is not counted in rotlab's best: it runs one of the other methods) against
+    rotlab's best and scipy's best."""
     out = []
     problems = list(dict.fromkeys(r.problem for r in records if r.kind == "work-precision"))
     for name in problems:
         rs = [r for r in records if r.problem == name and r.kind == "work-precision"]
         sides = {
-            "rotlab": best_at([r for r in rs if r.side == "rotlab"], threshold),
-            "rotlab_stepping": best_at([r for r in rs if r.side == "rotlab" and r.method != "exact"], threshold),
+            "rotlab": best_at([r for r in rs if r.side == "rotlab" and r.method != "auto"], threshold),
+            "rotlab_stepping": best_at([r for r in rs if r.side == "rotlab" and r.method not in ("exact", "auto")], threshold),
+            "auto": best_at([r for r in rs if r.method == "auto"], threshold),
             "scipy": best_at([r for r in rs if r.side == "scipy"], threshold),
             "scipy_dop853": best_at([r for r in rs if r.method == "scipy:DOP853"], threshold),
             "seed": best_at([r for r in rs if r.side == "seed"], threshold),
         }
         row: dict[str, Any] = {"kind": "ratio", "problem": name, "threshold": threshold, "metric": rs[0].metric, **sides}
-        for a, b in (("rotlab", "scipy"), ("rotlab", "scipy_dop853"), ("rotlab_stepping", "scipy"), ("rotlab", "seed")):
+        for a, b in (("rotlab", "scipy"), ("rotlab", "scipy_dop853"), ("rotlab_stepping", "scipy"), ("rotlab", "seed"), ("auto", "scipy"),
+                     ("rotlab", "auto")):
             x, y = sides[a], sides[b]
             key = f"{a}_vs_{b}"
             if x and y and x["reached"] and y["reached"]:
@@ -404,6 +432,85 @@ def ratios(records: list[Record], threshold: float = THRESHOLD) -> list[dict[str
                 row[key + "_interpolated"] = None
         out.append(row)
     return out
+
+
+def leads(records: list[Record], thresholds: tuple[float, ...] = LEAD_THRESHOLDS) -> list[dict[str, Any]]:
+    """Per problem and threshold: rotlab's own ``dop853`` (the stand-in for a compiled DOP853:
+    docs/benchmarks.md) against rotlab's best other method and against ``auto``, at max error ≤
+    threshold; lead = dop853's time / the other's (measured; log-log interpolated)."""
+    out = []
+    problems = list(dict.fromkeys(r.problem for r in records if r.kind == "work-precision"))
+    for name in problems:
+        rs = [r for r in records if r.problem == name and r.kind == "work-precision" and r.side == "rotlab"]
+        for threshold in thresholds:
+            sides = {
+                "dop853": best_at([r for r in rs if r.method == "dop853"], threshold),
+                "best": best_at([r for r in rs if r.method not in ("dop853", "auto")], threshold),
+                "auto": best_at([r for r in rs if r.method == "auto"], threshold),
+            }
+            row: dict[str, Any] = {"kind": "lead", "problem": name, "threshold": threshold, "method": "dop853", "setting": "-",
+                                   "max_error": None, "seconds": None, **sides}
+            for other in ("best", "auto"):
+                x, y = sides[other], sides["dop853"]
+                ok = bool(x and y and x["reached"] and y["reached"])
+                row[f"lead_{other}"] = y["seconds"] / x["seconds"] if ok else None
+                row[f"lead_{other}_interpolated"] = y["interpolated_seconds"] / x["interpolated_seconds"] if ok else None
+            out.append(row)
+    return out
+
+
+# --- per-call overhead ----------------------------------------------------------------------------
+
+
+def call_overhead(options: Options, configs: list[Path] | None = None, samples: int = 201) -> list[dict[str, Any]]:
+    """What ``rotlab.simulate`` adds to the integration: for each shipped config with ``samples``
+    samples, the medians of ``simulate(scenario)`` (scene, choice, solve, trajectory), the scene
+    + a fresh (uncached) choice + ``Method.solve``, ``Method.solve`` alone and the fresh choice
+    alone, timed interleaved (one of each per round).  ``simulate`` itself finds auto's choice in
+    its cache after the warm-up, as a loop over it does."""
+    import rotlab
+    from rotlab.methods.base import Settings
+    from rotlab.methods.choose import auto_choice, choose_method
+    from rotlab.scene.scene import build_scene
+
+    if configs is None:
+        configs = sorted(CONFIGS.glob("*.toml"))
+    rounds = 15 if options.quick else 41
+    rows = []
+    for config in configs:
+        sc = rotlab.load(config)
+        sc = sc.model_copy(update={"time": sc.time.model_copy(update={"sample_rate": None, "samples": samples})})
+        scene = build_scene(sc)
+        t = sc.time.sample_times()
+        s = sc.solver
+        settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps, order=s.order)
+        method, _, chosen = choose_method(scene, s.method, settings, t)  # the config's method (sweep_flip.toml: rk4)
+        rotlab.simulate(sc)  # warm-up: kernels loaded, lazy imports done
+
+        def fresh_choice(fresh):
+            return auto_choice(fresh, settings, t) if s.method == "auto" else choose_method(fresh, s.method, settings, t)
+
+        def choose_and_solve():
+            fresh = build_scene(sc)
+            m, _, st = fresh_choice(fresh)
+            return m.solve(fresh, t, st, None)
+
+        calls = {"simulate": lambda: rotlab.simulate(sc), "scene+choose+solve": choose_and_solve,
+                 "solve": lambda: method.solve(scene, t, chosen, None), "choose": lambda: fresh_choice(scene)}
+        samples_s: dict[str, list[float]] = {k: [] for k in calls}
+        for _ in range(rounds):
+            for key, fn in calls.items():
+                started = time.perf_counter()
+                fn()
+                samples_s[key].append(time.perf_counter() - started)
+        med = {k: statistics.median(v) for k, v in samples_s.items()}
+        rows.append({"kind": "overhead", "problem": config.name, "method": method.name, "setting": f"{samples} samples", "max_error": None,
+                     "seconds": med["simulate"], "simulate_seconds": med["simulate"], "solve_seconds": med["solve"],
+                     "pipeline_seconds": med["scene+choose+solve"], "choose_seconds": med["choose"],
+                     "overhead_seconds": med["simulate"] - med["solve"], "repeats": rounds, "load_average": _load()})
+        options.log(f"  overhead {config.name}: simulate {med['simulate'] * 1e6:.0f} µs, solve {med['solve'] * 1e6:.0f} µs, "
+                    f"choose {med['choose'] * 1e6:.0f} µs")
+    return rows
 
 
 # --- throughput -----------------------------------------------------------------------------------
@@ -428,11 +535,11 @@ def kernel_throughput(options: Options, steps: int = 1_000_000) -> list[dict[str
         method = get_method(name)
         if name == "exact" or method.unsupported(scene):
             continue
-        if getattr(method, "adaptive", False):
+        if method.adaptive:
             settings = [(name, Settings(rtol=1e-10, atol=1e-12, max_steps=10**12), "rtol=1e-10")]
         else:
             settings = [(name if o is None else f"{name}-{o}", Settings(step=1e-3, order=o, max_steps=10**12), "h=1e-3")
-                        for o in (tuple(getattr(method, "orders", ())) or (None,))]
+                        for o in (method.orders or (None,))]
         for label, setting, text in settings:
             solution, sec, compile_s, n = timed(lambda: method.solve(scene, t, setting, None), options, warm_up=True)
             rows.append(_throughput_row(label, "rotlab", solution.steps + solution.rejected_steps, sec, compile_s, n, text))
@@ -482,6 +589,7 @@ def run_timing(options: Options, configs: list[Path] | None = None, cold_repeats
     cold_n = cold_repeats or (1 if options.quick else 3)
     warm_n = options.repeats
     rows = []
+    floor_cmd = [sys.executable, "-c", "import " + ", ".join(DEPENDENCIES)]
     for config in configs:
         cold, warm = [], []
         with tempfile.TemporaryDirectory() as tmp:
@@ -489,12 +597,17 @@ def run_timing(options: Options, configs: list[Path] | None = None, cold_repeats
                 cache = Path(tmp) / f"numba-cache-{k}"
                 cache.mkdir()
                 cold.append(_run_once(config, Path(tmp), cache))
-            for _ in range(warm_n):
+            floor = []
+            for _ in range(warm_n):  # interleaved: the floor is measured beside every warm run
                 warm.append(_run_once(config, Path(tmp), cache))
+                floor.append(_timed_process(floor_cmd, dict(os.environ), Path(tmp)))
         row = {"kind": "run-timing", "problem": config.name, "method": "rotlab run", "setting": "-q", "max_error": None,
                "seconds": statistics.median(warm), "warm_seconds": statistics.median(warm), "cold_seconds": statistics.median(cold),
-               "warm_all": warm, "cold_all": cold, "command": f"rotlab run configs/{config.name} -o OUT.rrd -q", "load_average": _load()}
-        options.log(f"  rotlab run {config.name}: cold {row['cold_seconds']:.2f} s, warm {row['warm_seconds']:.2f} s")
+               "floor_seconds": statistics.median(floor), "warm_over_floor_seconds": statistics.median(w - f for w, f in zip(warm, floor)),
+               "warm_all": warm, "cold_all": cold, "floor_all": floor, "floor_command": " ".join(["python", "-c", repr(floor_cmd[2])]),
+               "command": f"rotlab run configs/{config.name} -o OUT.rrd -q", "load_average": _load()}
+        options.log(f"  rotlab run {config.name}: cold {row['cold_seconds']:.2f} s, warm {row['warm_seconds']:.2f} s, "
+                    f"floor (import of the dependencies) {row['floor_seconds']:.2f} s")
         rows.append(row)
     return rows
 
@@ -502,6 +615,10 @@ def run_timing(options: Options, configs: list[Path] | None = None, cold_repeats
 def _run_once(config: Path, workdir: Path, cache: Path) -> float:
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
     cmd = [sys.executable, "-m", "rotlab", "run", str(config), "-o", str(workdir / "out.rrd"), "-q"]
+    return _timed_process(cmd, env, workdir)
+
+
+def _timed_process(cmd: list[str], env: dict[str, str], workdir: Path) -> float:
     started = time.perf_counter()
     done = subprocess.run(cmd, env=env, cwd=workdir, capture_output=True, text=True)
     seconds = time.perf_counter() - started
@@ -520,7 +637,6 @@ def energy_windows(options: Options, steps: int = 10_000_000, windows: int = 10,
     are called directly, ``chunk`` samples at a time (one step per sample), so nothing of size
     ``steps`` is stored."""
     from rotlab.bench.problems import get_problems
-    from rotlab.core.dynamics import euler_coefficients
     from rotlab.methods.registry import get_method
     from rotlab.methods.stepping import initial_state
     from rotlab.scene.scene import build_scene
@@ -529,7 +645,7 @@ def energy_windows(options: Options, steps: int = 10_000_000, windows: int = 10,
         steps = min(steps, 1_000_000)
     (problem,) = get_problems(["gni"])
     scene = build_scene(problem.scenario())
-    euler, loads = euler_coefficients(scene.moments), scene.loads.for_kernel()
+    model = scene.model
     moments = scene.moments
     per_window = steps // windows
     chunk = min(chunk, per_window)
@@ -550,7 +666,7 @@ def energy_windows(options: Options, steps: int = 10_000_000, windows: int = 10,
                 n = min(chunk, per_window - done)
                 times = t_now + h * np.arange(n + 1)
                 out = np.empty((n + 1, 8))
-                status, _, _ = method.kernel(y, times, out, 1, 1, 10 * n, euler, loads, *extra)
+                status, _, _ = method.kernel(y, times, out, 1, 1, 10 * n, model, *extra)
                 if status != 0:
                     raise RuntimeError(f"{name} failed in the long run")
                 w = out[1:, 4:7]

@@ -2,36 +2,39 @@
 
 from __future__ import annotations
 
+import copy
 import difflib
+import re
+import signal
+import stat
+import threading
 import tomllib
 import types
 import typing
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Mapping
 
 from pydantic import BaseModel, ValidationError
 
 from rotlab.config.models import LOAD_MODELS, Scenario
+from rotlab.config.paths import model_defaults, set_at
 from rotlab.errors import InputError
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
+MAX_KEY_PARTS = 64  # dotted keys longer than this are no scenario (and tomllib is quadratic in them)
+PARSE_SECONDS = 10.0  # wall-clock limit on parsing one file (main thread only)
+_LONG_DOTTED_KEY = re.compile(r'(?:(?:[A-Za-z0-9_-]+|"[^"\n]*"|\'[^\'\n]*\')[ \t]*\.[ \t]*){%d,}' % MAX_KEY_PARTS)
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """Parse a TOML file; any problem with the file itself becomes an ``InputError``."""
+    """Parse a TOML file; any problem with the file itself becomes an ``InputError``.
+
+    Only regular files are read (a FIFO would block, a device never end), at most
+    ``MAX_FILE_BYTES``, parsed within ``PARSE_SECONDS``."""
     p = Path(path)
     where = str(p)
-    if not p.exists():
-        raise InputError(where, "no such file")
-    if p.is_dir():
-        raise InputError(where, "is a directory: give a scenario file such as configs/lagrange.toml")
-    try:
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise InputError(where, f"file is {size:,} bytes: a scenario is a small TOML text file")
-        data = p.read_bytes()
-    except OSError as exc:
-        raise InputError(where, f"cannot read: {exc.strerror}") from None
+    data = _read_limited(p, where)
     if not data.strip():
         raise InputError(where, "file is empty: start from a template, e.g. `rotlab new lagrange > scenario.toml`")
     if b"\x00" in data:
@@ -40,41 +43,118 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise InputError(where, f"not UTF-8 text (bad byte at offset {exc.start}): save the file as UTF-8") from None
+    return parse_toml_text(text, where)
+
+
+def _read_limited(p: Path, where: str) -> bytes:
     try:
-        return tomllib.loads(text)
+        info = p.stat()
+    except FileNotFoundError:
+        raise InputError(where, "no such file") from None
+    except OSError as exc:
+        raise InputError(where, f"cannot read: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise InputError(where, "is a directory: give a scenario file such as configs/lagrange.toml")
+    if not stat.S_ISREG(info.st_mode):
+        raise InputError(where, "is not a regular file (a device, FIFO or socket): give a scenario file such as configs/lagrange.toml")
+    if info.st_size > MAX_FILE_BYTES:
+        raise InputError(where, f"file is {info.st_size:,} bytes: a scenario is a small TOML text file (at most {MAX_FILE_BYTES:,} bytes)")
+    try:
+        with open(p, "rb") as handle:
+            data = handle.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise InputError(where, f"cannot read: {exc.strerror or exc}") from None
+    if len(data) > MAX_FILE_BYTES:  # files that report no size (/proc, ...)
+        raise InputError(where, f"file is over {MAX_FILE_BYTES:,} bytes: a scenario is a small TOML text file")
+    return data
+
+
+def parse_toml_text(text: str, where: str) -> dict[str, Any]:
+    """``tomllib.loads`` with the limits of ``read_toml``: key depth, nesting depth and time."""
+    try:
+        with _time_limit(PARSE_SECONDS):
+            long_key = _LONG_DOTTED_KEY.search(text)
+            if long_key:
+                line = text.count("\n", 0, long_key.start()) + 1
+                raise InputError(f"{where}: line {line}", f"a dotted key of more than {MAX_KEY_PARTS} parts: no scenario key is that deep")
+            return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(where, f"TOML syntax error: {exc}") from None
+    except RecursionError:
+        raise InputError(where, "arrays or tables nested too deeply: a scenario nests a few levels at most") from None
+    except _ParseTimeout:
+        raise InputError(where, f"took more than {PARSE_SECONDS:g} s to parse: a scenario is a small TOML text file") from None
 
 
-def load_scenario(path: str | Path, overrides: Mapping[tuple[str, ...], Any] | None = None) -> Scenario:
-    """Read, apply ``overrides`` ({('solver', 'method'): 'rk4', ...}) and validate a scenario."""
-    return parse_scenario(read_toml(path), source=str(path), overrides=overrides)
+class _ParseTimeout(Exception):
+    pass
+
+
+@contextmanager
+def _time_limit(seconds: float):
+    """Raise ``_ParseTimeout`` in the block after ``seconds`` of wall time (main thread with
+    SIGALRM only; elsewhere the size and key limits alone apply)."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "setitimer"):
+        yield
+        return
+
+    def expire(signum, frame):
+        raise _ParseTimeout
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None, duration: float | None = None) -> Scenario:
+    """Read, apply ``overrides`` ({'solver.method': 'rk4', 'initial.omega[2]': 50.0}) and
+    ``duration`` (end = start + duration, s), and validate a scenario."""
+    return parse_scenario(read_toml(path), source=str(path), overrides=overrides, duration=duration)
 
 
 def parse_scenario(
-    data: Mapping[str, Any], source: str = "<scenario>", overrides: Mapping[tuple[str, ...], Any] | None = None
+    data: Mapping[str, Any], source: str = "<scenario>", overrides: Mapping[str, Any] | None = None, duration: float | None = None
 ) -> Scenario:
-    """Validate a parsed TOML document (a dict) into a ``Scenario``."""
-    data = _with_overrides(data, overrides or {})
+    """Validate a parsed TOML document (a dict) into a ``Scenario``, after ``overrides`` (key
+    path → value, checked like the file's own keys) and ``duration``."""
+    data = _with_overrides(data, source, overrides or {}, duration)
     try:
         return Scenario.model_validate(data)
     except ValidationError as exc:
-        errors = exc.errors(include_url=False)
-        first = errors[0]
-        key, message = _describe(first)
-        more = f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})" if len(errors) > 1 else ""
-        raise InputError(f"{source}: {key}" if key else source, message + more) from None
+        raise input_error(exc, source) from None
 
 
-def _with_overrides(data: Mapping[str, Any], overrides: Mapping[tuple[str, ...], Any]) -> dict[str, Any]:
-    merged: dict[str, Any] = dict(data)
+def input_error(exc: ValidationError, source: str) -> InputError:
+    errors = exc.errors(include_url=False)
+    key, message = _describe(errors[0])
+    more = f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})" if len(errors) > 1 else ""
+    return InputError(f"{source}: {key}" if key else source, message + more)
+
+
+def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str, Any], duration: float | None) -> dict[str, Any]:
+    if not overrides and duration is None:
+        return dict(data)
+    merged = copy.deepcopy(dict(data))
+
+    def file_scenario() -> Scenario:  # the file's own values, for indexing into a vector it omits
+        try:
+            return Scenario.model_validate(data)
+        except ValidationError as exc:
+            raise input_error(exc, source) from None
+
     for path, value in overrides.items():
-        node = merged
-        for part in path[:-1]:
-            child = node.get(part)
-            node[part] = dict(child) if isinstance(child, dict) else {}
-            node = node[part]
-        node[path[-1]] = value
+        set_at(merged, path, value, path, model_defaults(file_scenario))
+    if duration is not None:
+        time = merged.get("time")
+        if not isinstance(time, dict):
+            time = merged["time"] = {}
+        start = time.get("start", 0.0)
+        if isinstance(start, (int, float)) and not isinstance(start, bool):
+            time["end"] = start + duration
     return merged
 
 
@@ -84,7 +164,7 @@ def _describe(error: Mapping[str, Any]) -> tuple[str, str]:
     loc = _clean_loc(raw_loc)
     ctx = error.get("ctx") or {}
     if "key" in ctx:
-        loc = loc + tuple(str(ctx["key"]).split("."))
+        loc = loc + tuple(int(part) if part.isdigit() else part for part in str(ctx["key"]).split("."))
     kind = error["type"]
     if kind == "missing":
         return _dotted(loc), "required key is missing: add it"

@@ -5,33 +5,80 @@
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal, Union
+from typing import Annotated, Any, Literal, Mapping, Self, Union
 
 import numpy as np
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
     Field,
+    ValidationError,
     field_validator,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
 
-from rotlab.methods.registry import METHOD_NAMES
+from rotlab import invariants
+from rotlab.config import expressions
+from rotlab.errors import InputError
+from rotlab.methods.names import METHOD_NAMES
 from rotlab.scene import inertia
 
-MAX_SAMPLES = 10_000_000
+MAX_SAMPLES = 1_000_000_000  # a sanity bound; long runs are streamed, and [output] max_megabytes asks first
 QUATERNION_NORM_TOLERANCE = 1e-3
+# Ranges that keep every product the kernels form (I ω², m g r, k ω, ...) finite in float64.
+MAX_MAGNITUDE = 1e30
+MIN_POSITIVE = 1e-30
+# The recording's time axis holds int64 nanoseconds: |t| ≤ 9.2e9 s, resolution 1 ns.
+MAX_TIME = 9e9  # s
+TIME_RESOLUTION = 1e-9  # s
+MIN_RTOL = 1e-16  # below double precision's resolution no method can go
 
 
 def _real(value: object) -> object:
-    """Accept TOML integers and floats only: no strings, no booleans."""
+    """Accept TOML integers and floats only (no strings, no booleans), finite and of magnitude
+    at most ``MAX_MAGNITUDE``."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise PydanticCustomError("real_number", "must be a number, found {found}", {"found": repr(value)})
-    if not math.isfinite(value):
-        raise PydanticCustomError("finite_number", "must be a finite number, found {found}", {"found": repr(value)})
-    return float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # a TOML integer beyond the float range
+        number = math.inf
+    if not math.isfinite(number):
+        raise PydanticCustomError("finite_number", "must be a finite number, found {found}", {"found": repr(value)[:40]})
+    if abs(number) > MAX_MAGNITUDE:
+        raise PydanticCustomError(
+            "magnitude", "must be at most 1e30 in magnitude (found {found}): use SI units of a real body", {"found": f"{number:g}"}
+        )
+    return number
+
+
+def _positive(value: float) -> float:
+    if not value > 0.0:
+        raise PydanticCustomError("positive", "must be > 0 (found {found})", {"found": f"{value:g}"})
+    if value < MIN_POSITIVE:
+        raise PydanticCustomError("positive", "must be at least 1e-30 (found {found}): use SI units of a real body", {"found": f"{value:g}"})
+    return value
+
+
+def _rtol(value: float) -> float:
+    if not MIN_RTOL <= value <= 1.0:
+        raise PydanticCustomError(
+            "rtol", "must be between 1e-16 and 1 (found {found}): double precision resolves no finer", {"found": f"{value:g}"}
+        )
+    return value
+
+
+def _time(value: float) -> float:
+    if abs(value) > MAX_TIME:
+        raise PydanticCustomError(
+            "time_range",
+            "must be within ±9e9 s (found {found}): the recording's time axis holds int64 nanoseconds",
+            {"found": f"{value:g}"},
+        )
+    return value
 
 
 def _invalid(key: str, message: str) -> PydanticCustomError:
@@ -40,7 +87,8 @@ def _invalid(key: str, message: str) -> PydanticCustomError:
 
 
 Real = Annotated[float, BeforeValidator(_real)]
-PositiveReal = Annotated[float, BeforeValidator(_real), Field(gt=0)]
+PositiveReal = Annotated[float, BeforeValidator(_real), AfterValidator(_positive)]
+TimeReal = Annotated[float, BeforeValidator(_real), AfterValidator(_time)]  # s, an instant
 NonNegativeReal = Annotated[float, BeforeValidator(_real), Field(ge=0)]
 Vec3 = tuple[Real, Real, Real]
 Vec4 = tuple[Real, Real, Real, Real]
@@ -50,17 +98,32 @@ Frame = Literal["body", "space"]
 class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
 
+    def model_copy(self, *, update: Mapping[str, Any] | None = None, deep: bool = False) -> Self:
+        """A copy with ``update`` applied and validated like the file (pydantic's own
+        ``model_copy`` skips validation: ``mass = -1`` would pass)."""
+        copied = super().model_copy(update=update, deep=deep)
+        if not update:
+            return copied
+        try:
+            return type(self).model_validate(copied.model_dump(mode="json", exclude_unset=True))
+        except ValidationError as exc:
+            first = exc.errors(include_url=False)[0]
+            key = ".".join(str(part) for part in (*first["loc"], *((first.get("ctx") or {}).get("key", ()),)) if part)
+            raise InputError(f"{type(self).__name__}.model_copy: {key}", first["msg"].replace("Value error, ", "")) from None
+
 
 class Window(_Model):
     """On/off time window [on, off) in seconds; the load acts only inside it."""
 
-    on: Real = -math.inf
-    off: Real = math.inf
+    on: TimeReal = -math.inf
+    off: TimeReal = math.inf
 
     @model_validator(mode="after")
     def _ordered(self) -> Window:
         if not self.on < self.off:
             raise _invalid("off", f"window must have on < off (got on = {self.on:g}, off = {self.off:g})")
+        if self.off - self.on < TIME_RESOLUTION:
+            raise _invalid("off", f"window is {self.off - self.on:.3g} s long, shorter than the 1 ns time resolution: widen it")
         return self
 
 
@@ -95,6 +158,8 @@ class Body(_Model):
                 raise _invalid(
                     key, f"tensor is not positive definite (principal moments {moments.tolist()}): check signs of products of inertia"
                 )
+        if np.min(moments) < MIN_POSITIVE:
+            raise _invalid(key, f"principal moments must be at least 1e-30 kg·m² (got {np.asarray(moments).tolist()}): use SI units of a real body")
         broken = inertia.triangle_violation(moments)
         if broken and not self.allow_triangle_violation:
             raise _invalid(
@@ -120,14 +185,7 @@ class Initial(_Model):
         if len(given) > 1:
             raise _invalid(given[1], f"give only one orientation, found {', '.join(given)}")
         if self.quaternion is not None:
-            norm = float(np.linalg.norm(self.quaternion))
-            if norm == 0.0:
-                raise _invalid("quaternion", "zero quaternion has no orientation: use [1, 0, 0, 0] for the identity")
-            if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
-                raise _invalid(
-                    "quaternion",
-                    f"|Λ| = {norm:.6g} is not 1: give a unit quaternion (divide each component by {norm:.6g})",
-                )
+            _unit_quaternion("quaternion", self.quaternion)
         return self
 
 
@@ -154,6 +212,7 @@ class Force(_Model):
     frame: Frame
     value: Vec3
     point: Vec3
+    window: Window | None = None  # a windowed space-frame force does work (no potential)
 
 
 class HarmonicTorque(_Model):
@@ -173,7 +232,7 @@ class TorqueTable(_Model):
 
     type: Literal["torque_table"]
     frame: Frame
-    times: list[Real]  # s, strictly increasing
+    times: list[TimeReal]  # s, strictly increasing
     values: list[Vec3]  # N·m
     window: Window | None = None
 
@@ -185,6 +244,8 @@ class TorqueTable(_Model):
             raise _invalid("values", f"needs one [Mx, My, Mz] per time: {len(self.times)} times, {len(self.values)} values")
         if np.any(np.diff(self.times) <= 0.0):
             raise _invalid("times", "times must be strictly increasing")
+        if np.any(np.diff(self.times) < TIME_RESOLUTION):
+            raise _invalid("times", "times closer than the 1 ns time resolution: merge those points")
         return self
 
 
@@ -195,21 +256,118 @@ class Damping(_Model):
     coefficient: NonNegativeReal
 
 
-Load = Annotated[
-    Union[Gravity, Torque, Force, HarmonicTorque, TorqueTable, Damping],
-    Field(discriminator="type"),
-]
+def _unit_quaternion(key: str, value: tuple[float, ...]) -> None:
+    norm = float(np.linalg.norm(value))
+    if norm == 0.0:
+        raise _invalid(key, "zero quaternion has no orientation: use [1, 0, 0, 0] for the identity")
+    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+        raise _invalid(key, f"|Λ| = {norm:.6g} is not 1: give a unit quaternion (divide each component by {norm:.6g})")
+
+
+Formula3 = tuple[str, str, str]
+
+
+class Expression(_Model):
+    """Torque, or force at a body point, whose components are formulas (``rotlab.config.expressions``)
+    of t, omega (body), q (Λ), gamma (``up`` in body components), L (body) and ``constants``;
+    the result is in the named frame (N·m or N)."""
+
+    type: Literal["expression"]
+    frame: Frame
+    torque: Formula3 | None = None  # N·m
+    force: Formula3 | None = None  # N, applied at ``point``
+    point: Vec3 | None = None  # m, body frame
+    constants: dict[str, Real] = {}
+    up: Vec3 = (0.0, 0.0, 1.0)  # space frame: the direction gamma shows in body components
+    window: Window | None = None
+
+    @model_validator(mode="after")
+    def _formulas(self) -> Expression:
+        if (self.torque is None) == (self.force is None):
+            raise _invalid("torque", "give exactly one of torque = [\"Mx\", \"My\", \"Mz\"] or force = [...] with point = [x, y, z]")
+        if (self.force is None) != (self.point is None):
+            raise _invalid("point", "a force needs point = [x, y, z] (m, body frame), and a torque takes no point")
+        if float(np.linalg.norm(self.up)) == 0.0:
+            raise _invalid("up", "up must be a non-zero direction (space frame)")
+        for name in self.constants:
+            try:
+                expressions.check_constant_name(name)
+            except expressions.FormulaError as exc:
+                raise _invalid(f"constants.{name}", exc.message) from None
+        self.programs()
+        return self
+
+    def programs(self) -> list[tuple[expressions.Program, int]]:
+        """The three components' (program, stack depth)."""
+        key = "torque" if self.torque is not None else "force"
+        out = []
+        for k, text in enumerate(self.torque if self.torque is not None else self.force):  # type: ignore[union-attr]
+            try:
+                out.append(expressions.parse_formula(text, self.constants))
+            except expressions.FormulaError as exc:
+                raise _invalid(f"{key}.{k}", str(exc)) from None
+        return out
+
+
+class PDControl(_Model):
+    """Attitude controller toward ``target``: M = sat(−kp sgn(δ₀) δ_v − kd ω) in the body frame,
+    δ = Λ_target⁻¹ ∘ Λ (δ_v its vector part, sin of half the error angle times the axis),
+    each component clipped to ±max_torque."""
+
+    type: Literal["pd_control"]
+    target: Vec4 = (1.0, 0.0, 0.0, 0.0)  # body → space, scalar first
+    kp: NonNegativeReal  # N·m (per unit of δ_v)
+    kd: NonNegativeReal  # N·m·s
+    max_torque: PositiveReal | None = None  # N·m per component
+    window: Window | None = None
+
+    @model_validator(mode="after")
+    def _target(self) -> PDControl:
+        _unit_quaternion("target", self.target)
+        return self
+
+
+class GravityGradient(_Model):
+    """Gravity-gradient torque of a circular orbit, M = 3 n² γ × (I γ) in the body frame, γ the
+    local vertical in body components.  The vertical turns (Earth-pointing orbit frame) about
+    ``orbit_normal`` at the orbit rate n: up(t) = cos(n t) vertical + sin(n t) normal × vertical."""
+
+    type: Literal["gravity_gradient"]
+    orbit_rate: PositiveReal  # n, rad/s
+    vertical: Vec3 = (1.0, 0.0, 0.0)  # space frame: local vertical at t = 0
+    orbit_normal: Vec3 = (0.0, 0.0, 1.0)  # space frame, perpendicular to vertical
+
+    @model_validator(mode="after")
+    def _orbit(self) -> GravityGradient:
+        v, h = np.asarray(self.vertical), np.asarray(self.orbit_normal)
+        if np.linalg.norm(v) == 0.0 or np.linalg.norm(h) == 0.0:
+            raise _invalid("vertical", "vertical and orbit_normal must be non-zero directions")
+        if abs(float(v @ h)) > 1e-9 * float(np.linalg.norm(v) * np.linalg.norm(h)):
+            raise _invalid("orbit_normal", "orbit_normal must be perpendicular to vertical")
+        return self
+
+
+class QuadraticDrag(_Model):
+    """Quadratic (aerodynamic) drag torque M = −c |ω| ω (N·m·s²); the same vector in every frame."""
+
+    type: Literal["quadratic_drag"]
+    coefficient: NonNegativeReal
+    window: Window | None = None
+
+
+LOAD_KINDS = (Gravity, Torque, Force, HarmonicTorque, TorqueTable, Damping, Expression, PDControl, GravityGradient, QuadraticDrag)
+Load = Annotated[Union[LOAD_KINDS], Field(discriminator="type")]  # type: ignore[valid-type]
 LOAD_MODELS: dict[str, type[_Model]] = {
     m.model_fields["type"].annotation.__args__[0]: m  # type: ignore[union-attr]
-    for m in (Gravity, Torque, Force, HarmonicTorque, TorqueTable, Damping)
+    for m in LOAD_KINDS
 }
 
 
 class Time(_Model):
     """Time span and output sampling.  Samples include both ends."""
 
-    start: Real = 0.0  # s
-    end: Real  # s
+    start: TimeReal = 0.0  # s
+    end: TimeReal  # s
     sample_rate: PositiveReal | None = None  # samples per second (default 100)
     samples: Annotated[int, Field(ge=2, strict=True)] | None = None  # number of samples, both ends included
 
@@ -219,6 +377,18 @@ class Time(_Model):
             raise _invalid("end", f"end ({self.end:g} s) must be after start ({self.start:g} s)")
         if self.sample_rate is not None and self.samples is not None:
             raise _invalid("samples", "give sample_rate or samples, not both")
+        if self.sample_count < 2:
+            rate = 100.0 if self.sample_rate is None else self.sample_rate
+            raise _invalid(
+                "end",
+                f"the span ({self.end - self.start:.3g} s) is shorter than one sample interval ({1.0 / rate:.3g} s at "
+                f"sample_rate {rate:g}): lengthen the span, raise sample_rate or give samples = N",
+            )
+        if (self.end - self.start) / (self.sample_count - 1) < TIME_RESOLUTION:
+            raise _invalid(
+                "sample_rate" if self.samples is None else "samples",
+                "samples closer than the recording's 1 ns time resolution: lower the rate or lengthen the span",
+            )
         if self.sample_count > MAX_SAMPLES:
             raise _invalid(
                 "sample_rate" if self.samples is None else "samples",
@@ -243,9 +413,9 @@ class Solver(_Model):
 
     method: str = "auto"
     step: PositiveReal | None = None  # s, fixed-step methods (default from the scene's time scale)
-    rtol: PositiveReal = 1e-10  # adaptive methods
+    rtol: Annotated[float, BeforeValidator(_real), AfterValidator(_rtol)] = 1e-10  # adaptive methods; and fixed-step ones without a step
     atol: PositiveReal = 1e-12
-    max_steps: Annotated[int, Field(gt=0, strict=True)] = 200_000_000
+    max_steps: Annotated[int, Field(gt=0, le=2**62, strict=True)] = 200_000_000
     order: Annotated[int, Field(ge=1, le=40, strict=True)] | None = None  # methods offering several orders
 
     @field_validator("method")
@@ -263,9 +433,13 @@ class Output(_Model):
 
     path: str | None = None  # default: <config name>.rrd
     euler_angles: bool = False
+    # derived and visual series (pose, arrows, axis tip, log drifts, Euler angles, L in space) keep at
+    # most this many samples (every k-th); the state, energy and invariant drifts keep every sample
+    visual_samples: Annotated[int, Field(ge=2, strict=True)] = 100_000
+    max_megabytes: PositiveReal = 2000.0  # `rotlab run` estimates the recording's size first and refuses beyond this
 
 
-INVARIANT_NAMES = ("energy", "quaternion_norm", "L_norm", "L_space", "L_vertical", "L_symmetry")
+INVARIANT_NAMES = invariants.NAMES
 
 
 class FlipPeriod(_Model):

@@ -211,11 +211,11 @@ def dmv_rotation(h, m1, m2, m3, j1, j2, j3, f1, f2, f3):
 
 
 @njit(cache=True)
-def dmv_advance(y, times, out, i_start, substeps, max_steps, euler, loads, order, coefficients):
+def dmv_advance(y, times, out, i_start, substeps, max_steps, model, order, coefficients):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, ``substeps`` DMV
     steps of order ``order`` per sample interval (contract of ``rotlab.core.rk4``).  Free body
-    only: ``loads`` is not read.  ``coefficients`` from ``modified_coefficients(moments)``."""
-    inv1, inv2, inv3 = euler[3], euler[4], euler[5]
+    only: only ``model.euler`` is read.  ``coefficients`` from ``modified_coefficients(moments)``."""
+    inv1, inv2, inv3 = model.euler[3], model.euler[4], model.euler[5]
     q0, q1, q2, q3 = y[0], y[1], y[2], y[3]
     m1, m2, m3 = y[4] / inv1, y[5] / inv2, y[6] / inv3
     steps = 0

@@ -40,16 +40,15 @@ def _rms_scaled(v, y, rtol, atol):
 
 
 @njit(cache=True)
-def initial_step(t, y, f0, t_end, rtol, atol, euler, loads):
+def initial_step(t, y, f0, t_end, rtol, atol, model):
     """Hairer's starting step: h = min(100 h₀, (0.01 / max(d₁, d₂))^(1/8))."""
-    forces, terms, tables, table_t, table_v, damping = loads
     d0 = _rms_scaled(y, y, rtol, atol)
     d1 = _rms_scaled(f0, y, rtol, atol)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, t_end - t)
     y1 = y + h0 * f0
     f1 = np.empty_like(y)
-    rhs(t + h0, y1, f1, euler, forces, terms, tables, table_t, table_v, damping)
+    rhs(t + h0, y1, f1, model)
     d2 = _rms_scaled(f1 - f0, y, rtol, atol) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
@@ -59,16 +58,15 @@ def initial_step(t, y, f0, t_end, rtol, atol, euler, loads):
 
 
 @njit(cache=True)
-def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, euler, loads, counters, breaks):
+def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, model, counters):
     """Advance from (t, y) with trial step h (≤ 0: choose one), writing ``out[i]`` for every
     sample i ≥ i_start passed, until all samples are written or ``max_steps`` steps were taken.
-    Steps end at every time in ``breaks`` (sorted): a load that switches or kinks there is never
+    Steps end at every time in ``model.breaks`` (sorted): a load that switches or kinks there is never
     stepped over.
 
     ``y`` is updated in place; ``counters`` (int64[3]) accumulates [accepted, rejected, f evals].
     Returns (status, next sample index, t, next trial step).
     """
-    forces, terms, tables, table_t, table_v, damping = loads  # unpacked once: see dynamics.torques
     n = STATE_SIZE
     K = np.empty((16, n))
     y_new = np.empty(n)
@@ -76,14 +74,15 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
     F = np.empty((7, n))
     E5v = np.empty(n)
     E3v = np.empty(n)
-    rhs(t, y, K[0], euler, forces, terms, tables, table_t, table_v, damping)
+    rhs(t, y, K[0], model)
     counters[2] += 1
     if h <= 0.0:
-        h = initial_step(t, y, K[0], t_end, rtol, atol, euler, loads)
+        h = initial_step(t, y, K[0], t_end, rtol, atol, model)
         counters[2] += 1
     i = i_start
     steps = 0
     rejected = False
+    breaks = model.breaks
     b = np.searchsorted(breaks, t, side="right")  # next breakpoint after t
     while i < times.shape[0] and steps < max_steps:
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
@@ -98,7 +97,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
         at_break = t_new == limit and limit != t_end
         t_last = np.nextafter(t_new, -np.inf) if at_break else t_new
         for s in range(1, _STAGES):
-            _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping)
+            _stage(s, t, h, t_last, y, K, tmp, model)
         for m in range(STATE_SIZE):
             y_new[m] = y[m]
         for j in range(_STAGES):
@@ -106,7 +105,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
             if bj != 0.0:
                 for m in range(STATE_SIZE):
                     y_new[m] += bj * K[j, m]
-        rhs(t_last, y_new, K[_STAGES], euler, forces, terms, tables, table_t, table_v, damping)
+        rhs(t_last, y_new, K[_STAGES], model)
         counters[2] += _STAGES
         for m in range(STATE_SIZE):
             E5v[m] = 0.0
@@ -135,7 +134,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
             steps += 1
             counters[0] += 1
             if times[i] <= t_new:
-                _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, euler, loads)
+                _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, model)
                 counters[2] += 3
                 while i < times.shape[0] and times[i] <= t_new:
                     if times[i] == t_new:
@@ -148,7 +147,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
                 K[0, m] = K[_STAGES, m]
             t = t_new
             if at_break:  # the next step starts from the right limit of the loads
-                rhs(t, y, K[0], euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t, y, K[0], model)
                 counters[2] += 1
             if not all_finite(y):
                 return NONFINITE, i, t, h
@@ -168,7 +167,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, e
 
 
 @njit(cache=True, inline="always")
-def _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping):
+def _stage(s, t, h, t_last, y, K, tmp, model):
     """K[s] ← f(t + c_s h, y + h Σ_j a_sj K[j]), the stage time capped at ``t_last``."""
     for m in range(STATE_SIZE):
         tmp[m] = y[m]
@@ -177,16 +176,15 @@ def _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, ta
         if a != 0.0:
             for m in range(STATE_SIZE):
                 tmp[m] += a * K[j, m]
-    rhs(min(t + _C[s] * h, t_last), tmp, K[s], euler, forces, terms, tables, table_t, table_v, damping)
+    rhs(min(t + _C[s] * h, t_last), tmp, K[s], model)
 
 
 @njit(cache=True)
-def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, euler, loads):
+def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, model):
     """Stages 14–16 and the interpolant coefficients F (7 × n) of the step [t, t + h]
     (stage times capped at ``t_last``, the left limit at a breakpoint)."""
-    forces, terms, tables, table_t, table_v, damping = loads
     for s in range(_STAGES + 1, 16):
-        _stage(s, t, h, t_last, y, K, tmp, euler, forces, terms, tables, table_t, table_v, damping)
+        _stage(s, t, h, t_last, y, K, tmp, model)
     for m in range(STATE_SIZE):
         dy = y_new[m] - y[m]
         F[0, m] = dy

@@ -44,12 +44,24 @@ def rotate_to_body(q0, q1, q2, q3, x, y, z):
     return rotate_to_space(q0, -q1, -q2, -q3, x, y, z)
 
 
+def cross_array(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over broadcast leading axes, (..., 3): the products and differences of ``np.cross``
+    (the same floating-point result) without its axis handling, which dominates on short arrays."""
+    a1, a2, a3 = a[..., 0], a[..., 1], a[..., 2]
+    b1, b2, b3 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
+    np.subtract(a2 * b3, a3 * b2, out=out[..., 0])
+    np.subtract(a3 * b1, a1 * b3, out=out[..., 1])
+    np.subtract(a1 * b2, a2 * b1, out=out[..., 2])
+    return out
+
+
 def multiply_array(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Λ ∘ M over broadcast leading axes; inputs (..., 4) scalar first."""
     a0, av = a[..., :1], a[..., 1:]
     b0, bv = b[..., :1], b[..., 1:]
     scalar = a0 * b0 - np.sum(av * bv, axis=-1, keepdims=True)
-    vector = a0 * bv + b0 * av + np.cross(av, bv)
+    vector = a0 * bv + b0 * av + cross_array(av, bv)
     return np.concatenate([scalar, vector], axis=-1)
 
 
@@ -62,8 +74,8 @@ def rotate_to_space_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """R(Λ) v for arrays q (..., 4) and v (..., 3), Λ assumed unit."""
     q0 = q[..., :1]
     qv = q[..., 1:]
-    t = 2.0 * np.cross(qv, v)
-    return v + q0 * t + np.cross(qv, t)
+    t = 2.0 * cross_array(qv, v)
+    return v + q0 * t + cross_array(qv, t)
 
 
 def rotate_to_body_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -145,3 +157,20 @@ def to_euler_313(q: np.ndarray) -> np.ndarray:
     phi = np.where(regular, np.arctan2(r[..., 2, 0], r[..., 2, 1]), 0.0)
     # at θ = π the rotation is Rz(ψ) Rx(π): ψ from R11 = cos ψ, R21 = sin ψ still holds
     return np.stack([psi, theta, phi], axis=-1)
+
+
+N_PRODUCTS = 10  # λ_i λ_j, i ≤ j: (00, 01, 02, 03, 11, 12, 13, 22, 23, 33)
+
+
+@njit(cache=True, inline="always")
+def rotate_quadratic(P, o, vx, vy, vz):
+    """L(P, v): the part of Rᵀ v = v − 2 λ₀ (λ × v) + 2 λ × (λ × v) that is quadratic in Λ,
+    written in the products P[o + 0..9] (λ = (λ₁, λ₂, λ₃)); linear in P and in v."""
+    p01, p02, p03 = P[o + 1], P[o + 2], P[o + 3]
+    p11, p12, p13, p22, p23, p33 = P[o + 4], P[o + 5], P[o + 6], P[o + 7], P[o + 8], P[o + 9]
+    n2 = p11 + p22 + p33
+    return (
+        -2.0 * (p02 * vz - p03 * vy) + 2.0 * (p11 * vx + p12 * vy + p13 * vz - vx * n2),
+        -2.0 * (p03 * vx - p01 * vz) + 2.0 * (p12 * vx + p22 * vy + p23 * vz - vy * n2),
+        -2.0 * (p01 * vy - p02 * vx) + 2.0 * (p13 * vx + p23 * vy + p33 * vz - vz * n2),
+    )

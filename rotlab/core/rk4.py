@@ -20,14 +20,14 @@ OK, NONFINITE = 0, 1
 
 
 @njit(cache=True)
-def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, breaks):
+def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, writing ``out[i]``.
 
     Stops after at most ``max_steps`` steps (at a sample).  Returns (status, next sample index,
     steps taken, partial steps at breakpoints included); on NONFINITE the returned index is the
-    sample whose interval failed.  ``breaks``: sorted load breakpoints (may be empty).
+    sample whose interval failed.  ``model``: the scene's ``rotlab.scene.loads.Model`` (its
+    ``breaks``: sorted load breakpoints, may be empty).
     """
-    forces, terms, tables, table_t, table_v, damping = loads  # unpacked once: see dynamics.torques
     n = STATE_SIZE
     k1 = np.empty(n)
     k2 = np.empty(n)
@@ -36,6 +36,7 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, break
     tmp = np.empty(n)
     steps = 0
     i = i_start
+    breaks = model.breaks
     b = np.searchsorted(breaks, times[i_start - 1], side="right")  # next breakpoint
     while i < times.shape[0] and steps + substeps <= max_steps:
         t0 = times[i - 1]
@@ -46,16 +47,16 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, break
             while t < t_end:  # one step, or its pieces between breakpoints
                 end, t_last, b = next_piece(t, t_end, breaks, b)
                 h = end - t
-                rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t, y, k1, model)
                 for m in range(n):
                     tmp[m] = y[m] + 0.5 * h * k1[m]
-                rhs(t + 0.5 * h, tmp, k2, euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t + 0.5 * h, tmp, k2, model)
                 for m in range(n):
                     tmp[m] = y[m] + 0.5 * h * k2[m]
-                rhs(t + 0.5 * h, tmp, k3, euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t + 0.5 * h, tmp, k3, model)
                 for m in range(n):
                     tmp[m] = y[m] + h * k3[m]
-                rhs(t_last, tmp, k4, euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t_last, tmp, k4, model)
                 for m in range(n):
                     y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
                 steps += 1

@@ -70,11 +70,10 @@ def _stage_orientation(y, tmp, ux, uy, uz):
 
 
 @njit(cache=True)
-def rkmk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, breaks):
+def rkmk4_advance(y, times, out, i_start, substeps, max_steps, model):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, ``substeps`` RKMK4
     steps per sample interval (contract of ``rotlab.core.rk4``, steps split at the load
-    ``breaks`` in the same way)."""
-    forces, terms, tables, table_t, table_v, damping = loads
+    breaks in the same way)."""
     n = STATE_SIZE
     k1 = np.empty(n)
     k2 = np.empty(n)
@@ -83,6 +82,7 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, bre
     tmp = np.empty(n)
     steps = 0
     i = i_start
+    breaks = model.breaks
     b = np.searchsorted(breaks, times[i_start - 1], side="right")  # next breakpoint
     while i < times.shape[0] and steps + substeps <= max_steps:
         t0 = times[i - 1]
@@ -94,28 +94,28 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, euler, loads, bre
                 end, t_last, b = next_piece(t, t_end, breaks, b)
                 h = end - t
                 # stage 1: θ = 0, dexp⁻¹ = identity
-                rhs(t, y, k1, euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t, y, k1, model)
                 a1x, a1y, a1z = h * y[4], h * y[5], h * y[6]
                 # stage 2: θ = k1/2
                 ux, uy, uz = 0.5 * a1x, 0.5 * a1y, 0.5 * a1z
                 _stage_orientation(y, tmp, ux, uy, uz)
                 for m in range(4, n):
                     tmp[m] = y[m] + 0.5 * h * k1[m]
-                rhs(t + 0.5 * h, tmp, k2, euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t + 0.5 * h, tmp, k2, model)
                 a2x, a2y, a2z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
                 # stage 3: θ = k2/2
                 ux, uy, uz = 0.5 * a2x, 0.5 * a2y, 0.5 * a2z
                 _stage_orientation(y, tmp, ux, uy, uz)
                 for m in range(4, n):
                     tmp[m] = y[m] + 0.5 * h * k2[m]
-                rhs(t + 0.5 * h, tmp, k3, euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t + 0.5 * h, tmp, k3, model)
                 a3x, a3y, a3z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
                 # stage 4: θ = k3
                 ux, uy, uz = a3x, a3y, a3z
                 _stage_orientation(y, tmp, ux, uy, uz)
                 for m in range(4, n):
                     tmp[m] = y[m] + h * k3[m]
-                rhs(t_last, tmp, k4, euler, forces, terms, tables, table_t, table_v, damping)
+                rhs(t_last, tmp, k4, model)
                 a4x, a4y, a4z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
                 # update
                 _stage_orientation(

@@ -46,7 +46,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import all_finite, conservative_torque
+from rotlab.core.dynamics import all_finite
+from rotlab.core.torques import conservative_torque, has_forces
 
 OK, NONFINITE = 0, 1
 
@@ -186,13 +187,13 @@ def _apply(q0, q1, q2, q3, a0, a1, a2, a3):
 
 
 @njit(cache=True, fastmath={"contract"})
-def splitting_advance(y, times, out, i_start, substeps, max_steps, euler, loads, order):
+def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, ``substeps`` equal
     steps of the order-``order`` composition per sample interval (see ``rotlab.core.rk4`` for the
-    contract).  Only the conservative forces of ``loads`` are read.  A negative step (decreasing
+    contract).  Only the conservative forces of ``model`` act.  A negative step (decreasing
     ``times``) runs the method backwards: it is its own adjoint."""
-    forces = loads[0]
-    kicks = forces is not None
+    kicks = has_forces(model)
+    euler = model.euler
     gam = _coefficients(order)
     ns = gam.shape[0]
     inv1, inv2, inv3 = euler[3], euler[4], euler[5]
@@ -213,7 +214,7 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, euler, loads,
                     q0, q1, q2, q3 = _apply(q0, q1, q2, q3, a0, a1, a2, a3)
                     a0 = a1 = a2 = a3 = 0.0
                     y[0], y[1], y[2], y[3] = q0, q1, q2, q3
-                    cx, cy, cz = conservative_torque(y, forces)
+                    cx, cy, cz = conservative_torque(y, model)
                     pk += 0.5 * g
                     l1 += pk * cx
                     l2 += pk * cy
@@ -234,7 +235,7 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, euler, loads,
             q0, q1, q2, q3 = _apply(q0, q1, q2, q3, a0, a1, a2, a3)
         if pk != 0.0:
             y[0], y[1], y[2], y[3] = q0, q1, q2, q3
-            cx, cy, cz = conservative_torque(y, forces)
+            cx, cy, cz = conservative_torque(y, model)
             l1 += pk * cx
             l2 += pk * cy
             l3 += pk * cz

@@ -13,7 +13,8 @@ Loads (body components, principal frame; products P_ij = λ_i λ_j, i ≤ j, 10 
 * body-frame time functions b(τ) (harmonic terms, table segments): their own series;
 * space-frame time functions s(τ): (Rᵀ s)^[k] = s^[k] + Σ_j L(P^[j], s^[k−j]);
 * damping −d ω.
-Windows and table knots are breakpoints: steps end there, so each step sees one smooth load.
+Windows and table knots are breakpoints: steps end there, so each step sees one smooth load;
+steps also end where an abs, sign, min or max of an expression switches branch.
 
 Order and step (Jorba & Zou §3.2): N = ⌈−½ ln ε⌉ + 1 with ε = rtol (or the order asked for);
 h = e^(−0.7/(N−1)) · min over j ∈ {N−1, N} and the groups g ∈ {Λ, ω} of
@@ -28,29 +29,16 @@ import math
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, table_segment
+from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece
+from rotlab.core.quaternion import N_PRODUCTS, rotate_quadratic
+from rotlab.core.torques import load_series, nonconservative_series, series_workspace, switch_step
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
-N_PRODUCTS = 10  # λ_i λ_j, i ≤ j: (00, 01, 02, 03, 11, 12, 13, 22, 23, 33)
 
 
 def default_order(rtol: float) -> int:
     """Jorba & Zou's order for tolerance ε: ⌈−½ ln ε⌉ + 1 (at least 4)."""
     return max(4, math.ceil(-0.5 * math.log(rtol)) + 1)
-
-
-@njit(cache=True, inline="always")
-def rotate_quadratic(P, o, vx, vy, vz):
-    """L(P, v): the part of Rᵀ v = v − 2 λ₀ (λ × v) + 2 λ × (λ × v) that is quadratic in Λ,
-    written in the products P[o + 0..9] (λ = (λ₁, λ₂, λ₃)); linear in P and in v."""
-    p01, p02, p03 = P[o + 1], P[o + 2], P[o + 3]
-    p11, p12, p13, p22, p23, p33 = P[o + 4], P[o + 5], P[o + 6], P[o + 7], P[o + 8], P[o + 9]
-    n2 = p11 + p22 + p33
-    return (
-        -2.0 * (p02 * vz - p03 * vy) + 2.0 * (p11 * vx + p12 * vy + p13 * vz - vx * n2),
-        -2.0 * (p03 * vx - p01 * vz) + 2.0 * (p12 * vx + p22 * vy + p23 * vz - vy * n2),
-        -2.0 * (p01 * vy - p02 * vx) + 2.0 * (p13 * vx + p23 * vy + p33 * vz - vz * n2),
-    )
 
 
 def force_map(forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -68,47 +56,11 @@ def force_map(forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @njit(cache=True)
-def load_series(t, order, terms, tables, table_t, table_v, body, space):
-    """Taylor coefficients at t of the time-dependent torques acting on the step from t:
-    ``body`` / ``space`` (order + 1, 3) for the body-frame / space-frame ones.
-    offset + a sin(w τ + φ): a w^k / k! · sin(w t + φ + kπ/2);  a table segment: value, slope."""
-    body[:, :] = 0.0
-    space[:, :] = 0.0
-    for k in range(terms.shape[0]):
-        if not (terms[k, 1] <= t < terms[k, 2]):
-            continue
-        target = space if terms[k, 0] != 0.0 else body
-        for c in range(3):
-            target[0, c] += terms[k, 3 + c]
-        w = terms[k, 9]
-        if w != 0.0:
-            angle = w * t + terms[k, 10]
-            s, co = math.sin(angle), math.cos(angle)
-            scale = 1.0
-            for j in range(order + 1):
-                phase = (s, co, -s, -co)[j % 4]  # sin(angle + jπ/2)
-                for c in range(3):
-                    target[j, c] += terms[k, 6 + c] * scale * phase
-                scale *= w / (j + 1)
-    for k in range(tables.shape[0]):
-        if not (tables[k, 1] <= t < tables[k, 2]):
-            continue
-        lo = table_segment(table_t, int(tables[k, 3]), int(tables[k, 4]), t)
-        if lo < 0:
-            continue
-        target = space if tables[k, 0] != 0.0 else body
-        dt = table_t[lo + 1] - table_t[lo]
-        for c in range(3):
-            slope = (table_v[lo + 1, c] - table_v[lo, c]) / dt
-            target[0, c] += table_v[lo, c] + slope * (t - table_t[lo])
-            if order >= 1:
-                target[1, c] += slope
-
-
-@njit(cache=True)
-def series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has_space, has_work):
+def series(t, X, order, model, c0, T, body, space, P, M, has_products, has_space, has_work, inputs, tape, stack):
     """Fill X[1..order] (Taylor coefficients of the state, X[0] given) and M[0..order−1] (the
-    non-conservative torque, body components).  P holds the products' coefficients."""
+    non-conservative torque, body components, ``rotlab.core.torques.nonconservative_series``).
+    P holds the products' coefficients."""
+    euler = model.euler
     for k in range(order):
         a0 = a1 = a2 = a3 = 0.0
         e0 = e1 = e2 = 0.0
@@ -148,18 +100,7 @@ def series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has
                 tx += c0[0]
                 ty += c0[1]
                 tz += c0[2]
-        nx = body[k, 0] - damping * X[k, 4]
-        ny = body[k, 1] - damping * X[k, 5]
-        nz = body[k, 2] - damping * X[k, 6]
-        if has_space:
-            nx += space[k, 0]
-            ny += space[k, 1]
-            nz += space[k, 2]
-            for j in range(k + 1):
-                lx, ly, lz = rotate_quadratic(P, N_PRODUCTS * j, space[k - j, 0], space[k - j, 1], space[k - j, 2])
-                nx += lx
-                ny += ly
-                nz += lz
+        nx, ny, nz = nonconservative_series(k, t, X, P, model, body, space, has_space, inputs, tape, stack)
         M[k, 0], M[k, 1], M[k, 2] = nx, ny, nz
         work = 0.0
         if has_work:
@@ -204,12 +145,11 @@ def evaluate(X, order, s, out):
 
 
 @njit(cache=True)
-def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, euler, c0, T, loads, breaks, flags, counters):
+def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0, T, flags, counters):
     """Advance from (t, y), writing ``out[i]`` for every sample passed, until all samples are
-    written or ``max_steps`` steps were taken; steps end at every time in ``breaks`` (sorted).
+    written or ``max_steps`` steps were taken; steps end at every time in ``model.breaks``.
     ``flags`` = (has_products, has_space, has_work); ``counters`` (int64[1]) += steps.
     Returns (status, next sample index, t)."""
-    _, terms, tables, table_t, table_v, damping = loads
     has_products, has_space, has_work = flags
     X = np.zeros((order + 1, STATE_SIZE))
     P = np.zeros(N_PRODUCTS * (order + 1))
@@ -217,18 +157,23 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, euler, c0,
     body = np.zeros((order + 1, 3))
     space = np.zeros((order + 1, 3))
     t_end = times[times.shape[0] - 1]
-    has_time_loads = terms.shape[0] > 0 or tables.shape[0] > 0  # otherwise body, space stay zero
+    inputs, tape, stack = series_workspace(model, order)
+    breaks = model.breaks
     b = np.searchsorted(breaks, t, side="right")
     steps = 0
     while i < times.shape[0] and steps < max_steps:
         for m in range(STATE_SIZE):
             X[0, m] = y[m]
-        if has_time_loads:
-            load_series(t, order, terms, tables, table_t, table_v, body, space)
-        series(X, order, euler, c0, T, damping, body, space, P, M, has_products, has_space, has_work)
-        h = step_size(X, order, y, rtol, atol)
+        load_series(t, order, model, body, space)
         limit, _, b = next_piece(t, t_end, breaks, b)
-        t_new = min(t + h, limit)
+        cut = -1.0
+        for _ in range(3):  # formed again when a switch of an expression sits at t (``switch_step``)
+            series(t, X, order, model, c0, T, body, space, P, M, has_products, has_space, has_work, inputs, tape, stack)
+            h = min(step_size(X, order, y, rtol, atol), limit - t)
+            cut = switch_step(t, model, tape, order, h)
+            if cut >= 0.0:
+                break
+        t_new = t + cut
         if t_new - t < 10.0 * (np.nextafter(t, np.inf) - t):
             return STEP_TOO_SMALL, i, t
         h = t_new - t
@@ -242,3 +187,18 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, euler, c0,
         if not all_finite(y):
             return NONFINITE, i, t
     return OK, i, t
+
+
+@njit(cache=True)
+def coefficients(t, y, order, model, c0, T, flags):
+    """The Taylor coefficients X[0..order] of the state at (t, y), as ``taylor_advance`` forms
+    them for a step from t (for checks and tools)."""
+    X = np.zeros((order + 1, STATE_SIZE))
+    X[0, :] = y
+    body = np.zeros((order + 1, 3))
+    space = np.zeros((order + 1, 3))
+    inputs, tape, stack = series_workspace(model, order)
+    load_series(t, order, model, body, space)
+    series(t, X, order, model, c0, T, body, space, np.zeros(N_PRODUCTS * (order + 1)), np.zeros((order + 1, 3)),
+           flags[0], flags[1], flags[2], inputs, tape, stack)
+    return X

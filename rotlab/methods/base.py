@@ -32,8 +32,8 @@ class Settings:
 class Solution:
     """State at the sample times, principal body frame.
 
-    ``state[:, 0:4]`` Λ (scalar first), ``state[:, 4:7]`` ω (body), ``state[:, 7]`` work W of the
-    non-conservative loads.  Only the first ``valid`` rows are meaningful: a run that failed keeps
+    ``state`` rows in the layout of ``rotlab.core.state``: Λ (scalar first), ω (body), work W of
+    the non-conservative loads.  Only the first ``valid`` rows are meaningful: a run that failed keeps
     what it computed before the failure and says why in ``failure``.
     """
 
@@ -48,12 +48,42 @@ class Solution:
     details: dict[str, object] = field(default_factory=dict)
 
 
+FIXED, ADAPTIVE, NO_STEPS = "fixed", "adaptive", "none"  # values of ``Method.stepping``
+
+
 class Method(Protocol):
+    """What every method declares; tools (``choose``, bench, sweeps) rely on these and nothing else.
+
+    ``stepping``: FIXED (equal steps from ``solver.step`` or from ``solver.rtol`` through a
+    probe, see ``FixedStepping``), ADAPTIVE (steps chosen from ``rtol``/``atol`` as it goes) or
+    NO_STEPS (a closed form evaluated at the samples).  ``adaptive`` is ``stepping == ADAPTIVE``.
+    ``orders``: the orders ``solver.order`` may choose (empty: the one ``order_of_accuracy``,
+    None for NO_STEPS).  ``evaluations_per_step(scene, order)``: right-hand-side (or force)
+    evaluations per accepted step, the method's cost unit (0 when it evaluates none).
+    """
+
     name: str
     summary: str
+    stepping: str
+    adaptive: bool
+    orders: tuple[int, ...]
+    order_of_accuracy: int | None
+
+    def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
+        """Right-hand-side evaluations per step for ``scene`` at ``order``."""
 
     def unsupported(self, scene: Scene) -> str | None:
         """Why this method cannot run ``scene`` (None when it can)."""
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         """The state at the sample times ``t`` (``t[0]`` is the initial time)."""
+
+
+class FixedStepping(Method, Protocol):
+    """A FIXED-stepping method also says the step it would take (``rotlab.methods.fixed_step``)."""
+
+    def order(self, settings: Settings) -> int:
+        """The order it runs at (``settings.order`` checked against ``orders``)."""
+
+    def step_for_tolerance(self, scene: Scene, t: np.ndarray, rtol: float, order: int) -> float:
+        """The step that meets ``rtol`` over the span of ``t``, from a probe run."""

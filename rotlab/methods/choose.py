@@ -1,22 +1,49 @@
 """Which method runs a scene: the user's choice (checked), or ``auto`` with its reason.
 
-``auto`` takes the cheapest method that is exact or meets ``solver.rtol`` for the scene:
-  exact solution (torque-free body, Lagrange top)     →  no stepping at all;
-  conservative scene (gravity, constant space forces)  →  symplectic splitting, the order with
-      the least work (stages × steps, steps from the tolerance probe): bounded energy error;
-  anything else (work done, time-dependent loads)      →  adaptive Taylor series: on the bench's
-      general scenes it is 2–3× faster than DOP853 at equal rtol and more accurate
-      (docs/benchmarks.md).
+``auto`` takes, among the methods that apply to the scene, the one with the least expected total
+cost (``rotlab.methods.cost``: measured per-call, per-step and per-sample costs, a priori step
+counts) whose expected max error is within ``ACCURACY_FACTOR`` × rtol; when none is (a stepping
+method's rounding floor near a separatrix, rtol below what exact gives), the one with the
+smallest expected error.  Candidates:
+
+  exact      torque-free bodies and the Lagrange top: set-up + cost per sample, no steps;
+  dmv        torque-free bodies, orders 8, 10, 12, at the a priori step that meets rtol;
+  taylor     every scene, at local tolerance rtol / ``TAYLOR_MARGIN`` (its global error is up to
+             ~20× its local tolerance on fast spinners: configs/lagrange.toml, general.toml; near
+             a separatrix rtol / the amplification), the cheapest order from Jorba–Zou's to 3 above;
+  splitting  conservative scenes with forces, orders 4, 6, 8; rk4 every scene (both only win at loose rtol:
+             they then derive their step from their own tolerance probe).
+
+A stepping method whose numba kernel has not run yet in this process also pays for loading it
+(``cost.first_use_seconds``), shared among the runs the process is expected to make (as many
+as it has made): a single ``rotlab run`` of a Lagrange top or a free body then evaluates the exact
+solution in milliseconds rather than spend ~0.3 s or more on numba, while a sweep or a loop over
+``rotlab.simulate`` moves to the cheaper stepper once the load is worth it.
+
+``dop853`` and ``rkmk4`` are never cheaper than ``taylor`` at equal error on the bench
+(docs/benchmarks.md), so ``auto`` does not consider them.  The choice costs a few dozen float
+operations per candidate (~30–60 µs in Python) and is cached by the numbers it depends on (body,
+initial state, loads, samples, settings): a sweep, a benchmark or a loop over ``rotlab.simulate``
+pays for it once (a look-up: a few µs).
 """
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from rotlab.errors import InputError
+from rotlab.methods import cost
 from rotlab.methods.base import Method, Settings
 from rotlab.methods.registry import METHOD_MODULES, get_method
-from rotlab.scene.scene import Scene
+from rotlab.scene.scene import LAGRANGE, TORQUE_FREE, Scene
+
+ACCURACY_FACTOR = 10.0  # "meets rtol": expected max error ≤ this × rtol
+TAYLOR_MARGIN = 10.0  # taylor's local tolerance = rtol / this
+DMV_ORDERS = (8, 10, 12)
+SPLITTING_ORDERS = (4, 6, 8)
+TAYLOR_ORDER_RANGE = (4, 40)
 
 
 def choose_method(scene: Scene, requested: str, settings: Settings, t: np.ndarray) -> tuple[Method, str, Settings]:
@@ -30,16 +57,177 @@ def choose_method(scene: Scene, requested: str, settings: Settings, t: np.ndarra
         if why_not:
             raise InputError("solver.method", f"'{requested}' cannot run this scene: {why_not}; use method = \"auto\"")
         return method, "requested in the scenario or on the command line", settings
-    kind = scene.kind.replace("_", "-")
-    exact = get_method("exact")
-    if exact.unsupported(scene) is None:
-        return exact, f"auto: {kind} scene has an exact solution, evaluated at the samples without stepping", settings
-    if not scene.has_work and settings.step is None:
-        splitting = get_method("splitting")
-        work = {order: splitting.evaluations_per_step(scene, order) / splitting.step_for_tolerance(scene, t, settings.rtol, order)
-                for order in splitting.orders}
-        order = min(work, key=work.get)
-        chosen = Settings(step=None, rtol=settings.rtol, atol=settings.atol, max_steps=settings.max_steps, order=order)
-        return splitting, (f"auto: conservative {kind} scene ({scene.kind_reason}): symplectic splitting of order {order}, "
-                           f"the least work for rtol = {settings.rtol:g}; energy error bounded, no drift"), chosen
-    return get_method("taylor"), f"auto: {kind} scene ({scene.kind_reason}): adaptive Taylor series meets rtol = {settings.rtol:g}", settings
+    global _RUNS
+    _RUNS += 1
+    key = _choice_key(scene, settings, t)
+    choice = None if key is None else _CHOICES.get(key)
+    if choice is None:
+        choice = auto_choice(scene, settings, t)
+        if key is None:  # loads that are no plain numbers (a Python torque): not cached
+            return choice
+        if len(_CHOICES) >= CACHE_SIZE:
+            _CHOICES.pop(next(iter(_CHOICES)))
+        _CHOICES[key] = choice
+    return choice
+
+
+CACHE_SIZE = 512
+_CHOICES: dict[tuple, tuple[Method, str, Settings]] = {}
+_RUNS = 0  # auto choices made in this process (cache hits included): a process that ran k runs is expected to run ~k more
+
+
+def _choice_key(scene: Scene, settings: Settings, t: np.ndarray) -> tuple | None:
+    """Everything the choice depends on, as numbers: the same body, state, loads, samples and
+    settings get the same choice (a loop over ``rotlab.simulate`` builds a new scene each call).
+    None when a load is not plain numbers (then the choice is not cached)."""
+    loads = tuple(x.tobytes() if isinstance(x, np.ndarray) else x for x in scene.loads)
+    try:
+        hash(loads)
+    except TypeError:
+        return None
+    return (_numba_ready(), _RUNS.bit_length(), scene.kind, scene.moments.tobytes(), scene.omega0.tobytes(), loads, settings.rtol, settings.atol, settings.step,
+            settings.order, settings.max_steps, t.shape[0], float(t[0]), float(t[-1]))
+
+
+def work_of(scene: Scene, t: np.ndarray) -> cost.Work:
+    """The cost model's view of a run: span, samples, rate scale, breakpoints, load kind, floor."""
+    span = float(t[-1] - t[0])
+    rate = scene.rate_scale or 1.0 / max(span, 1e-300)
+    loads = "loads" if scene.has_work else ("forces" if scene.has_potential else "free")
+    floor, amplification = 0.0, 1.0
+    if scene.kind == TORQUE_FREE:
+        floor, amplification = cost.separatrix(tuple(scene.moments.tolist()), tuple(scene.omega0.tolist()), span, rate)
+    breaks = scene.cached("breakpoints", lambda: _breakpoints(scene))
+    inside = int(np.count_nonzero((breaks > min(t[0], t[-1])) & (breaks < max(t[0], t[-1])))) if breaks.size else 0
+    return cost.Work(span=abs(span), samples=int(t.shape[0]), rate=rate, breakpoints=inside, loads=loads, floor=floor,
+                     amplification=amplification)
+
+
+def _breakpoints(scene: Scene) -> np.ndarray:
+    from rotlab.scene.loads import breakpoints
+
+    return breakpoints(scene.loads)
+
+
+def candidates(scene: Scene, settings: Settings, work: cost.Work) -> list[cost.Estimate]:
+    """Every method ``auto`` considers for this scene, with its expected cost and error."""
+    rtol, order = settings.rtol, settings.order
+    out: list[cost.Estimate] = []
+    if scene.kind in (TORQUE_FREE, LAGRANGE) and order is None:
+        out.append(cost.exact_estimate(_exact_kind(scene), work))
+    tolerance = rtol / max(TAYLOR_MARGIN, work.amplification)
+    if order is None or TAYLOR_ORDER_RANGE[0] <= order <= TAYLOR_ORDER_RANGE[1]:
+        out.append(cost.taylor_estimate(order, tolerance, work))
+    target = rtol / work.amplification  # the fixed-step methods' probes aim at rtol itself
+    if scene.kind == TORQUE_FREE:
+        out += [cost.fixed_step_estimate("dmv", k, k, target, work) for k in DMV_ORDERS if order in (None, k)]
+    elif not scene.has_work:  # (on a free body dmv is cheaper at every order: same accuracy, cheaper steps)
+        out += [cost.fixed_step_estimate("splitting", k, k, target, work, probe=True) for k in SPLITTING_ORDERS if order in (None, k)]
+    if order is None:
+        out.append(cost.fixed_step_estimate("rk4", None, 4, target, work, step_limit=2.8, probe=True))
+    return out
+
+
+_KERNELS = {"taylor": ("rotlab.core.taylor", "taylor_advance"), "dmv": ("rotlab.core.dmv", "dmv_advance"),
+            "splitting": ("rotlab.core.splitting", "splitting_advance"), "rk4": ("rotlab.core.rk4", "rk4_advance")}
+
+
+def _numba_ready() -> bool:
+    """Has some numba kernel run in this process (its target context is set up)?"""
+    return "numba.np.arraymath" in sys.modules
+
+
+def _kernel_ready(name: str) -> bool:
+    """Has ``name``'s kernel been compiled or loaded in this process (any specialisation)?"""
+    module_name, attr = _KERNELS.get(name, ("", ""))
+    module = sys.modules.get(module_name)
+    if module is None:
+        return False
+    signatures = getattr(getattr(module, attr, None), "signatures", None)
+    return True if signatures is None else bool(signatures)
+
+
+def with_first_use(estimates: list[cost.Estimate]) -> list[cost.Estimate]:
+    """Add the one-time cost of loading each stepping method's kernel in this process, shared
+    among the runs the process is expected to make: after k runs, ~k more (a sweep or a loop over
+    ``simulate`` soon makes loading the kernel worth it; a single ``rotlab run`` does not)."""
+    ready = _numba_ready()
+    share = 1.0 / max(_RUNS, 1)
+    out = []
+    for e in estimates:
+        if e.method != "exact" and not _kernel_ready(e.method):
+            e = e._replace(seconds=e.seconds + share * cost.first_use_seconds(e.method, ready))
+        out.append(e)
+    return out
+
+
+def _exact_kind(scene: Scene) -> str:
+    if scene.kind == LAGRANGE:
+        return "lagrange"
+    moments = scene.moments
+    distinct = len({float(x) for x in moments})
+    return "axisymmetric" if distinct < 3 or np.count_nonzero(scene.omega0) <= 1 else "asymmetric"
+
+
+def auto_choice(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[Method, str, Settings]:
+    """``auto``'s choice, not cached (``choose_method`` caches it by its inputs)."""
+    name, why, chosen = _auto(scene, settings, t)
+    return get_method(name), why, chosen
+
+
+def _auto(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[str, str, Settings]:
+    kind = f"{scene.kind.replace('_', '-')} scene ({scene.kind_reason})"
+    if settings.step is not None:
+        return _fixed_step_given(scene, settings, kind)
+    work = work_of(scene, t)
+    no_series = get_method("taylor").unsupported(scene)
+    if no_series and settings.order is None:  # a Python torque: no cost model knows its smoothness, dop853 controls its error
+        return "dop853", f"auto: dop853 meets rtol = {settings.rtol:g} with error control ({no_series}); {kind}", settings
+    estimates = [e for e in with_first_use(candidates(scene, settings, work)) if get_method(e.method).unsupported(scene) is None]
+    if not estimates:
+        raise InputError("solver.order", f"no method offers order {settings.order} for this {kind}; omit solver.order")
+    meeting = [e for e in estimates if e.error <= ACCURACY_FACTOR * settings.rtol]
+    if meeting:
+        best = min(meeting, key=lambda e: e.seconds)
+        verdict = f"the least expected cost for max error ≤ ~{ACCURACY_FACTOR:g}·rtol = {ACCURACY_FACTOR * settings.rtol:.0e}"
+    else:
+        best = min(estimates, key=lambda e: (e.error, e.seconds))
+        verdict = f"no method is expected within {ACCURACY_FACTOR:g}·rtol; the smallest expected error ({best.error:.0e})"
+    others = sorted((e for e in meeting if e is not best), key=lambda e: e.seconds)[:3]
+    if best.method != "exact" and any(e.method == "exact" for e in estimates) and not any(e.method == "exact" for e in others):
+        others.append(next(e for e in estimates if e.method == "exact"))
+    compared = "; ".join(f"{e.label} {_seconds(e.seconds)}" + ("" if e.error <= ACCURACY_FACTOR * settings.rtol else f" (error ~{e.error:.0e})")
+                         for e in others)
+    floor = f"; stepping error floor near the separatrix ~{work.floor:.0e}" if work.floor > 1e-3 * settings.rtol else ""
+    if not all(_kernel_ready(e.method) for e in estimates if e.method != "exact"):
+        floor += "; the stepping methods' times include loading their numba kernel in this process"
+    why = (f"auto: {best.label}, expected {_seconds(best.seconds)}: {verdict}"
+           + (f" (vs {compared})" if compared else "") + f"; {kind}{floor}")
+    return best.method, why, _settings_for(best, settings)
+
+
+def _settings_for(best: cost.Estimate, settings: Settings) -> Settings:
+    if best.method == "exact":
+        return settings
+    if best.method == "taylor":
+        scale = best.rtol / settings.rtol
+        return Settings(step=None, rtol=best.rtol, atol=settings.atol * scale, max_steps=settings.max_steps, order=best.order)
+    if best.method == "dmv":  # high order: the a priori step (no probe run)
+        return Settings(step=best.step, rtol=settings.rtol, atol=settings.atol, max_steps=settings.max_steps, order=best.order)
+    # low order: the method's own tolerance probe is worth its cost on the long runs these are
+    return Settings(step=None, rtol=settings.rtol, atol=settings.atol, max_steps=settings.max_steps, order=best.order)
+
+
+def _fixed_step_given(scene: Scene, settings: Settings, kind: str) -> tuple[str, str, Settings]:
+    """``solver.step`` with ``auto``: the fixed-step method made for the scene."""
+    if scene.kind == TORQUE_FREE:
+        name = "dmv"
+    elif not scene.has_work:
+        name = "splitting"
+    else:
+        name = "rk4"
+    return name, f"auto: solver.step = {settings.step:g} s given: {name}, the fixed-step method for this {kind}", settings
+
+
+def _seconds(x: float) -> str:
+    return f"{x * 1e3:.2g} ms" if x < 1e-3 else (f"{x * 1e3:.3g} ms" if x < 1.0 else f"{x:.3g} s")  # (no µ: the viewer's font lacks it)

@@ -5,42 +5,43 @@ from __future__ import annotations
 
 import numpy as np
 
-from rotlab.core.dynamics import euler_coefficients
 from rotlab.core import dop853 as kernel
-from rotlab.methods.base import ProgressCallback, Settings, Solution
+from rotlab.methods.base import ADAPTIVE, ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
-from rotlab.scene.loads import breakpoints
 from rotlab.scene.scene import Scene
 
 
 class DOP853:
     name = "dop853"
     summary = "adaptive Dormand–Prince 8(5,3) with dense output"
+    stepping = ADAPTIVE
     adaptive = True  # steps chosen from rtol/atol, not a fixed step
+    orders: tuple[int, ...] = ()
+    order_of_accuracy = 8
+
+    def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
+        return 12  # 12 stages, the 13th is the next step's first (FSAL); dense output adds 3 per sampled step
 
     def unsupported(self, scene: Scene) -> str | None:
         return None
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
-        out = np.empty((t.shape[0], 8))
         y = initial_state(scene.q0, scene.omega0)
-        out[0] = y
-        euler, loads, breaks = scene.cached("dop853", lambda: (euler_coefficients(scene.moments), scene.loads.for_kernel(),
-                                                               breakpoints(scene.loads)))
+        model = scene.model
         counters = np.zeros(3, dtype=np.int64)
         clock = {"t": float(t[0]), "h": 0.0}
 
-        def advance(i: int, budget: int) -> tuple[int, int, int]:
+        def advance(times: np.ndarray, out: np.ndarray, i: int, budget: int) -> tuple[int, int, int]:
             before = int(counters[0] + counters[1])
             status, i, clock["t"], clock["h"] = kernel.dop853_advance(
-                y, clock["t"], clock["h"], t, out, i, float(t[-1]), settings.rtol, settings.atol, budget, euler, loads, counters, breaks
+                y, clock["t"], clock["h"], times, out, i, float(times[-1]), settings.rtol, settings.atol, budget, model, counters
             )
             return status, i, int(counters[0] + counters[1]) - before
 
-        def describe(status: int, i: int) -> str:
-            return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], t, i, out)
+        def describe(status: int, times: np.ndarray, out: np.ndarray, i: int) -> str:
+            return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], times, i, out)
 
-        solution = run_chunks(t, out, advance, settings.max_steps, progress, describe)
+        solution = run_chunks(t, y, advance, settings.max_steps, progress, describe)
         solution.steps = int(counters[0])
         solution.rejected_steps = int(counters[1])
         solution.rhs_evaluations = int(counters[2])

@@ -13,7 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from rotlab.core import quaternion as quat
-from rotlab.methods.base import ProgressCallback, Settings, Solution
+from rotlab.core.exact.lagrange import lagrange_top_solution  # (imports scipy.special: at selection, not in the timed solve)
+from rotlab.core.exact.torque_free import torque_free_solution
+from rotlab.methods.base import NO_STEPS, ProgressCallback, Settings, Solution
+from rotlab.methods.stepping import evaluate_in_windows
 from rotlab.scene.scene import LAGRANGE, TORQUE_FREE, Scene
 from rotlab.scene.loads import active_forces
 
@@ -23,6 +26,13 @@ E_Z = np.array([0.0, 0.0, 1.0])
 class Exact:
     name = "exact"
     summary = "closed-form solution evaluated at the sample times (no stepping)"
+    stepping = NO_STEPS
+    adaptive = False
+    orders: tuple[int, ...] = ()
+    order_of_accuracy = None
+
+    def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
+        return 0
 
     def unsupported(self, scene: Scene) -> str | None:
         if scene.kind in (TORQUE_FREE, LAGRANGE):
@@ -30,26 +40,24 @@ class Exact:
         return f"no exact solution for a {scene.kind} scene ({scene.kind_reason}); exact covers torque-free bodies and the Lagrange top"
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
-        if scene.kind == TORQUE_FREE:
-            from rotlab.core.exact.torque_free import torque_free_solution
+        t0 = float(t[0])
 
-            q, omega = torque_free_solution(scene.moments, scene.omega0, scene.q0, float(t[0]), t)
-        else:
-            q, omega = _lagrange(scene, t)
-        state = np.zeros((t.shape[0], 8))
-        state[:, 0:4] = q
-        state[:, 4:7] = omega
-        if progress is not None:
-            progress(t.shape[0], t.shape[0])
-        finite = np.all(np.isfinite(state), axis=1)
-        valid = t.shape[0] if finite.all() else int(np.argmin(finite))
-        failure = None if valid == t.shape[0] else f"exact solution not finite at t = {t[valid]:.9g} s"
-        return Solution(t=t, state=state, valid=valid, failure=failure, details={"evaluated samples": int(t.shape[0])})
+        def evaluate(times: np.ndarray) -> np.ndarray:
+            if scene.kind == TORQUE_FREE:
+                q, omega = torque_free_solution(scene.moments, scene.omega0, scene.q0, t0, times)
+            else:
+                q, omega = _lagrange(scene, t0, times)
+            state = np.zeros((times.shape[0], 8))
+            state[:, 0:4] = q
+            state[:, 4:7] = omega
+            return state
+
+        solution = evaluate_in_windows(t, evaluate, progress)
+        solution.details = {"evaluated samples": int(solution.valid)}
+        return solution
 
 
-def _lagrange(scene: Scene, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from rotlab.core.exact.lagrange import lagrange_top_solution
-
+def _lagrange(scene: Scene, t0: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (row,) = active_forces(scene.loads)
     arm, force = row[:3], row[3:]
     axis = scene.symmetry_axis
@@ -60,7 +68,7 @@ def _lagrange(scene: Scene, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     a_moment = 0.5 * (float(np.sum(scene.moments)) - c_moment)
     mgl = float(np.linalg.norm(force) * (arm @ axis))
     q_c0 = quat.multiply_array(quat.multiply_array(space_q, scene.q0), quat.conjugate_array(body_q))
-    q_c, omega_c = lagrange_top_solution(a_moment, c_moment, mgl, B @ scene.omega0, q_c0, float(t[0]), t)
+    q_c, omega_c = lagrange_top_solution(a_moment, c_moment, mgl, B @ scene.omega0, q_c0, t0, t)
     q = quat.multiply_array(quat.multiply_array(quat.conjugate_array(space_q), q_c), body_q)
     return q, omega_c @ B
 

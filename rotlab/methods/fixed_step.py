@@ -1,6 +1,6 @@
 """Base of the fixed-step methods: a compiled kernel with the signature
 
-    advance(y, times, out, i_start, substeps, max_steps, euler, loads, *extra) → (status, i, steps)
+    advance(y, times, out, i_start, substeps, max_steps, model, *extra) → (status, i, steps)
 
 that steps ``substeps`` equal steps per sample interval (see ``rotlab.core.rk4``).  A method
 module only names its kernel, the orders it offers, its cost and what it cannot do.
@@ -20,10 +20,9 @@ from typing import Callable
 
 import numpy as np
 
-from rotlab.core.dynamics import euler_coefficients
 from rotlab.errors import InputError
-from rotlab.methods.base import ProgressCallback, Settings, Solution
-from rotlab.methods.stepping import initial_state, nonfinite_message, run_chunks
+from rotlab.methods.base import FIXED, ProgressCallback, Settings, Solution
+from rotlab.methods.stepping import CHUNK_STEPS, initial_state, nonfinite_message, run_chunks
 from rotlab.scene.scene import Scene
 
 PROBE_RADIANS = 20.0  # probe span: about 20 rad of the scene's characteristic rotation
@@ -43,6 +42,8 @@ class FixedStepMethod:
     default_order: int | None = None
     step_limit: float = 2.0  # largest h·ω (rad per step) that is stable / meaningful
     probe_cache: dict = field(default_factory=dict, compare=False, repr=False)
+    stepping = FIXED
+    adaptive = False
 
     def unsupported(self, scene: Scene) -> str | None:
         return self.requires(scene)
@@ -100,30 +101,59 @@ class FixedStepMethod:
         times = np.array([t0, t0 + span])
         out = np.empty((2, 8))
         y = initial_state(scene.q0, scene.omega0)
-        euler, loads, extra = self.kernel_args(scene, order)
-        self.kernel(y, times, out, 1, steps, steps, euler, loads, *extra)
+        self.kernel(y, times, out, 1, steps, steps, scene.model, *self.kernel_args(scene, order))
         return y
 
     def kernel_args(self, scene: Scene, order: int) -> tuple:
-        """(Euler coefficients, loads for the kernel, the method's extra arguments), once per scene."""
-        return scene.cached(f"{self.name}-{order}", lambda: (euler_coefficients(scene.moments), scene.loads.for_kernel(),
-                                                            tuple(self.extra_args(scene, order))))
+        """The method's extra kernel arguments (after ``scene.model``), once per scene."""
+        return scene.cached(f"{self.name}-{order}", lambda: tuple(self.extra_args(scene, order)))
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         order = self.order(settings)
         interval = float(t[1] - t[0])
         h = self.step(scene, t, settings, order)
         substeps = max(1, math.ceil(interval / h - 1e-9))
-        out = np.empty((t.shape[0], 8))
+        needed = substeps * (t.shape[0] - 1)
+        if needed > settings.max_steps:  # known before stepping: refuse rather than run into the budget
+            raise InputError(
+                "solver.max_steps",
+                f"{self.name} needs {needed:.3g} steps of {interval / substeps:.3g} s for this span, beyond max_steps = "
+                f"{settings.max_steps:,}: raise solver.max_steps, give a longer solver.step or looser rtol, or use method = \"auto\"",
+            )
         y = initial_state(scene.q0, scene.omega0)
-        out[0] = y
-        euler, loads, extra = self.kernel_args(scene, order)
-
-        def advance(i: int, budget: int) -> tuple[int, int, int]:
-            return self.kernel(y, t, out, i, substeps, max(budget, substeps), euler, loads, *extra)
-
-        solution = run_chunks(t, out, advance, settings.max_steps, progress, lambda status, i: nonfinite_message(t, i, out))
+        model, extra = scene.model, self.kernel_args(scene, order)
+        advance = _long_samples(self.kernel, y, substeps, (model, *extra)) if substeps > CHUNK_STEPS else (
+            lambda times, out, i, budget: self.kernel(y, times, out, i, substeps, budget, model, *extra))
+        solution = run_chunks(t, y, advance, settings.max_steps, progress, lambda status, times, out, i: nonfinite_message(times, i, out))
         solution.rhs_evaluations = self.evaluations_per_step(scene, order) * solution.steps
         solution.details = {"step": interval / substeps, "steps per sample": substeps, "order": order,
                             "step from": "solver.step" if settings.step is not None else f"rtol = {settings.rtol:g}"}
         return solution
+
+
+def _long_samples(kernel: Callable, y: np.ndarray, substeps: int, args: tuple) -> Callable:
+    """``advance`` for samples longer than a chunk of steps: each sample interval is cut into
+    m = ⌈substeps / CHUNK_STEPS⌉ equal pieces of ⌈substeps / m⌉ steps, one piece per call, so
+    Ctrl-C, the step budget and the wall-clock limit are honoured inside a sample."""
+    pieces = math.ceil(substeps / CHUNK_STEPS)
+    per_piece = math.ceil(substeps / pieces)
+    scratch = np.empty((2, y.shape[0]))
+    position = {"piece": 0}
+
+    def advance(times: np.ndarray, out: np.ndarray, i: int, budget: int) -> tuple[int, int, int]:
+        if per_piece > budget:  # not enough of the step budget left for a piece
+            return 0, i, 0
+        k = position["piece"]
+        t0, t1 = float(times[i - 1]), float(times[i])
+        scratch_times = np.array([t0 + k * (t1 - t0) / pieces, t1 if k == pieces - 1 else t0 + (k + 1) * (t1 - t0) / pieces])
+        status, _, taken = kernel(y, scratch_times, scratch, 1, per_piece, per_piece, *args)
+        if status != 0:
+            return status, i, taken
+        if k < pieces - 1:
+            position["piece"] = k + 1
+            return 0, i, taken
+        position["piece"] = 0
+        out[i] = y
+        return 0, i + 1, taken
+
+    return advance

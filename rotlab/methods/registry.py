@@ -1,26 +1,14 @@
-"""Method names → modules, imported lazily so that validating a config compiles nothing.
-
-Adding a method: write ``rotlab/methods/<name>.py`` exposing ``METHOD`` (see ``base.Method``)
-and add one line here.
-"""
+"""Method names → method objects, imported lazily so that validating a config compiles nothing.
+The names live in ``rotlab.methods.names`` (a module that imports nothing)."""
 
 from __future__ import annotations
 
 import importlib
 
 from rotlab.methods.base import Method
+from rotlab.methods.names import METHOD_MODULES, METHOD_NAMES
 
-METHOD_MODULES: dict[str, str] = {
-    "rk4": "rotlab.methods.rk4",
-    "dop853": "rotlab.methods.dop853",
-    "splitting": "rotlab.methods.splitting",
-    "dmv": "rotlab.methods.dmv",
-    "rkmk4": "rotlab.methods.rkmk4",
-    "taylor": "rotlab.methods.taylor",
-    "exact": "rotlab.methods.exact",
-}
-
-METHOD_NAMES: tuple[str, ...] = ("auto", *METHOD_MODULES)
+__all__ = ["METHOD_MODULES", "METHOD_NAMES", "get_method"]
 
 
 def get_method(name: str) -> Method:

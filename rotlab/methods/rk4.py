@@ -2,7 +2,6 @@
 
 from rotlab.core.rk4 import rk4_advance
 from rotlab.methods.fixed_step import FixedStepMethod
-from rotlab.scene.loads import breakpoints
 
 METHOD = FixedStepMethod(
     name="rk4",
@@ -11,5 +10,4 @@ METHOD = FixedStepMethod(
     order_of_accuracy=4,
     step_limit=2.8,  # RK4 is stable on the imaginary axis up to h·ω = 2√2
     evaluations_per_step=lambda scene, order: 4,
-    extra_args=lambda scene, order: (breakpoints(scene.loads),),
 )

@@ -4,7 +4,6 @@ time-dependent and non-conservative loads included.  See ``rotlab.core.rkmk4``."
 
 from rotlab.core.rkmk4 import rkmk4_advance
 from rotlab.methods.fixed_step import FixedStepMethod
-from rotlab.scene.loads import breakpoints
 
 METHOD = FixedStepMethod(
     name="rkmk4",
@@ -13,5 +12,4 @@ METHOD = FixedStepMethod(
     order_of_accuracy=4,
     step_limit=2.8,  # its RK4 stages: stable up to h·ω = 2√2
     evaluations_per_step=lambda scene, order: 4,
-    extra_args=lambda scene, order: (breakpoints(scene.loads),),
 )

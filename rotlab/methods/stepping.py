@@ -1,20 +1,98 @@
 """The driver shared by the time-stepping methods: it calls a compiled kernel in chunks of
-steps, so Python runs once per chunk (progress bar, Ctrl-C, failure reporting), never per step.
+steps, so Python runs once per chunk (progress bar, Ctrl-C, wall-clock limit, streaming,
+failure reporting), never per step.
+
+Two ways to run, chosen by the caller of ``Method.solve`` through ``streaming(...)``:
+
+* whole (the default, ``rotlab.simulate``): the kernel writes into one (N, 8) array that the
+  ``Solution`` returns;
+* streamed (``rotlab run``): the samples are produced in windows of at most ``WINDOW`` rows;
+  every finished run of rows goes to the ``RowConsumer`` as soon as the kernel returns, and the
+  window is reused, so memory does not grow with the run's length.  The ``Solution`` then holds
+  only the last window (``state`` rows ``[valid − len(state), valid)``).
+
+A kernel call sees a window of the sample times ``times = t[lo − 1 : hi]`` and of the output
+``out`` (row 0 is the sample before the window: the kernels continue from the state ``y`` they
+carry, so the window's first row is never written) and the local index i ≥ 1 of its next sample.
 """
 
 from __future__ import annotations
 
-from typing import Callable
+import contextlib
+import contextvars
+import time
+from dataclasses import dataclass
+from typing import Callable, Iterator, Protocol
 
 import numpy as np
 
 from rotlab.core.dynamics import STATE_SIZE
 from rotlab.methods.base import ProgressCallback, Solution
 
-# a chunk of kernel work returns (status, next sample index, steps taken in the chunk)
-Chunk = Callable[[int, int], tuple[int, int, int]]
+# a chunk of kernel work: advance(times, out, i, budget) → (status, next local sample index, steps taken)
+Chunk = Callable[[np.ndarray, np.ndarray, int, int], tuple[int, int, int]]
 
 CHUNK_STEPS = 1 << 18
+WINDOW = 1 << 16  # samples per window when streaming (8 doubles each: 4 MB)
+
+
+class RowConsumer(Protocol):
+    def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> None:
+        """Samples ``start, start + 1, …`` (times ``t``, states ``state`` (n, 8), principal frame):
+        valid and final; the arrays are reused after the call returns."""
+
+
+@dataclass(frozen=True)
+class RunControl:
+    """Run-wide controls the driver honours between kernel calls."""
+
+    consumer: RowConsumer | None = None  # streaming: where the rows go
+    deadline: float | None = None  # time.monotonic() value; past it the run stops (``--timeout``)
+    timeout: float | None = None  # the limit in seconds, for the message
+
+
+_CONTROL: contextvars.ContextVar[RunControl] = contextvars.ContextVar("rotlab_run_control", default=RunControl())
+
+
+@contextlib.contextmanager
+def controlled(control: RunControl) -> Iterator[None]:
+    """Run the methods called inside the block under ``control`` (streaming and/or a deadline)."""
+    token = _CONTROL.set(control)
+    try:
+        yield
+    finally:
+        _CONTROL.reset(token)
+
+
+def current_control() -> RunControl:
+    return _CONTROL.get()
+
+
+class SampleTimes:
+    """``np.linspace(start, end, n)`` without the array: element k is k·step + start with
+    step = (end − start)/(n − 1) and the last element exactly ``end`` (NumPy's own arithmetic,
+    so the values are identical).  Indexing with an int gives a float, with a slice an array:
+    a streamed run of any length never holds its sample times (8 bytes per sample)."""
+
+    def __init__(self, start: float, end: float, n: int) -> None:
+        self.start, self.end, self.n = float(start), float(end), int(n)
+        self.step = (self.end - self.start) / (self.n - 1) if self.n > 1 else 0.0
+        self.shape = (self.n,)
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __getitem__(self, key: int | slice) -> float | np.ndarray:
+        if isinstance(key, slice):
+            k = np.arange(*key.indices(self.n), dtype=float)
+            values = k * self.step + self.start
+            if values.size and k[-1] == self.n - 1:
+                values[-1] = self.end
+            return values
+        k = int(key) + (self.n if int(key) < 0 else 0)
+        if not 0 <= k < self.n:
+            raise IndexError(key)
+        return self.end if k == self.n - 1 else k * self.step + self.start
 
 
 def initial_state(q0: np.ndarray, omega0: np.ndarray) -> np.ndarray:
@@ -24,37 +102,100 @@ def initial_state(q0: np.ndarray, omega0: np.ndarray) -> np.ndarray:
     return y
 
 
+def timeout_message(control: RunControl, t_now: float) -> str:
+    return f"wall-clock limit of {control.timeout:g} s (--timeout) reached at t = {t_now:.9g} s"
+
+
 def run_chunks(
     t: np.ndarray,
-    out: np.ndarray,
+    y: np.ndarray,
     advance: Chunk,
     max_steps: int,
     progress: ProgressCallback | None,
-    describe_failure: Callable[[int, int], str],
+    describe_failure: Callable[[int, np.ndarray, np.ndarray, int], str],
 ) -> Solution:
-    """Call ``advance(i, budget)`` until every sample is written, a failure or the step budget.
+    """Call ``advance`` until every sample is written, a failure, the step budget, the
+    wall-clock limit or Ctrl-C; ``y`` is the state at ``t[0]`` (advanced in place by the kernel).
 
-    ``describe_failure(status, i)`` words a non-zero status at sample index i.
-    A KeyboardInterrupt ends the run cleanly, keeping the samples written so far.
+    ``describe_failure(status, times, out, i)`` words a non-zero status at local index i of the
+    window (``out`` row i − 1 is the last valid state, at ``times[i − 1]``).  A KeyboardInterrupt ends the run cleanly,
+    keeping the samples written so far.
     """
+    control = current_control()
+    n = t.shape[0]
+    streamed = control.consumer is not None
+    out = np.empty((min(n, WINDOW + 1) if streamed else n, STATE_SIZE))
+    out[0] = y
+    if streamed:
+        control.consumer.rows(0, t[:1], out[:1])
+    base, hi = 0, min(n, WINDOW + 1) if streamed else n  # the window: global samples [base, hi), out row 0 = base
     i, steps, failure, interrupted = 1, 0, None, False
     try:
-        while i < t.shape[0]:
+        while i < n:
             budget = min(CHUNK_STEPS, max_steps - steps)
             if budget <= 0:
                 failure = f"step budget of {max_steps:,} steps exhausted at t = {t[i - 1]:.9g} s (raise solver.max_steps)"
                 break
-            status, i, taken = advance(i, budget)
-            steps += taken
-            if progress is not None:
-                progress(i, t.shape[0])
-            if status != 0:
-                failure = describe_failure(status, i)
+            if control.deadline is not None and time.monotonic() > control.deadline:
+                failure = timeout_message(control, t[i - 1])
                 break
+            times, window = t[base:hi], out[: hi - base]
+            status, local, taken = advance(times, window, i - base, budget)
+            steps += taken
+            done = base + local
+            if status != 0:
+                failure = describe_failure(status, times, window, local)
+                done = base + _valid_rows(window, local)
+            elif taken == 0 and done == i:  # the rest of the budget is less than the next sample needs
+                failure = f"step budget of {max_steps:,} steps exhausted at t = {t[i - 1]:.9g} s (raise solver.max_steps)"
+            if streamed and done > i:
+                control.consumer.rows(i, t[i:done], window[i - base : done - base])
+            i = done
+            if progress is not None:
+                progress(i, n)
+            if failure is not None:
+                break
+            if streamed and i == hi < n:  # window full: its last row starts the next one
+                out[0] = window[hi - base - 1]
+                base, hi = hi - 1, min(n, hi + WINDOW)
     except KeyboardInterrupt:
         failure, interrupted = f"interrupted by the user at t = {t[i - 1]:.9g} s", True
-    valid = i if failure is None else _valid_rows(out, i)
-    return Solution(t=t, state=out, valid=valid, steps=steps, failure=failure, interrupted=interrupted)
+    state = out[: i - base] if streamed else out
+    return Solution(t=t, state=state, valid=i, steps=steps, failure=failure, interrupted=interrupted)
+
+
+def evaluate_in_windows(t: np.ndarray, evaluate: Callable[[np.ndarray], np.ndarray], progress: ProgressCallback | None) -> Solution:
+    """For methods that evaluate a closed form at any times (no stepping): ``evaluate(times)``
+    returns the (len(times), 8) states.  Whole runs evaluate all samples at once; streamed runs
+    window by window (bounded memory), with Ctrl-C and the wall-clock limit checked between
+    windows.  Evaluation stops at the first non-finite state."""
+    control = current_control()
+    n = t.shape[0]
+    step = WINDOW if control.consumer is not None else n
+    state = np.empty((0, STATE_SIZE))
+    i, failure, interrupted = 0, None, False
+    try:
+        while i < n:
+            if control.deadline is not None and time.monotonic() > control.deadline and i > 0:
+                failure = timeout_message(control, t[i - 1])
+                break
+            stop = min(n, i + step)
+            state = evaluate(t[i:stop])
+            valid = _valid_rows(state, state.shape[0])
+            if control.consumer is not None and valid:
+                control.consumer.rows(i, t[i : i + valid], state[:valid])
+            i += valid
+            if progress is not None:
+                progress(i, n)
+            if valid < state.shape[0]:
+                failure = f"exact solution not finite at t = {t[i]:.9g} s"
+                state = state[:valid]
+                break
+    except KeyboardInterrupt:
+        failure, interrupted = f"interrupted by the user at t = {t[max(i, 1) - 1]:.9g} s", True
+    if control.consumer is not None:
+        state = state[max(0, state.shape[0] - WINDOW) :]
+    return Solution(t=t, state=state, valid=i, failure=failure, interrupted=interrupted)
 
 
 def _valid_rows(out: np.ndarray, i: int) -> int:
@@ -63,16 +204,16 @@ def _valid_rows(out: np.ndarray, i: int) -> int:
     return int(np.argmin(finite)) if not finite.all() else i
 
 
-def adaptive_failure_message(step_too_small: bool, t_now: float, t: np.ndarray, i: int, state: np.ndarray) -> str:
+def adaptive_failure_message(step_too_small: bool, t_now: float, times: np.ndarray, i: int, state: np.ndarray) -> str:
     """Why an adaptive method stopped: its step fell below the floating-point resolution at
     ``t_now``, or the state became non-finite (see ``nonfinite_message``)."""
     if step_too_small:
         return f"step size fell below the floating-point resolution at t = {t_now:.9g} s (the solution is singular or the tolerances too tight)"
-    return nonfinite_message(t, i, state)
+    return nonfinite_message(times, i, state)
 
 
 def nonfinite_message(t: np.ndarray, i: int, state: np.ndarray) -> str:
-    """Where and why a run blew up, naming the last valid state."""
+    """Where and why a run blew up, naming the last valid state (row i − 1 of ``state``)."""
     last = state[i - 1]
     return (
         f"state became non-finite between t = {t[i - 1]:.9g} s and t = {t[min(i, t.shape[0] - 1)]:.9g} s; "

@@ -9,11 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from rotlab.core import taylor as kernel
-from rotlab.core.dynamics import euler_coefficients
 from rotlab.errors import InputError
-from rotlab.methods.base import ProgressCallback, Settings, Solution
+from rotlab.methods.base import ADAPTIVE, ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
-from rotlab.scene.loads import SPACE, active_forces, breakpoints, has_nonconservative
+from rotlab.scene.loads import SPACE, active_forces, has_nonconservative
 from rotlab.scene.scene import Scene
 
 MIN_ORDER, MAX_ORDER = 4, 40
@@ -22,9 +21,17 @@ MIN_ORDER, MAX_ORDER = 4, 40
 class Taylor:
     name = "taylor"
     summary = "adaptive high-order Taylor series (Jorba–Zou), any loads, dense output from the series"
+    stepping = ADAPTIVE
     adaptive = True  # steps chosen from rtol/atol, not a fixed step
+    orders = tuple(range(MIN_ORDER, MAX_ORDER + 1))  # solver.order; default from rtol
+    order_of_accuracy = None  # chosen per run (``order_for``)
+
+    def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
+        return 0  # no right-hand-side evaluation: one Taylor series (O(order²) products) per step
 
     def unsupported(self, scene: Scene) -> str | None:
+        if scene.loads.user is not None:
+            return "taylor needs the Taylor series of every load, and a Python torque function has none (use dop853, rk4 or rkmk4)"
         return None
 
     def order_for(self, settings: Settings) -> int:
@@ -36,37 +43,36 @@ class Taylor:
         order = self.order_for(settings)
         if not MIN_ORDER <= order <= MAX_ORDER:
             raise InputError("solver.order", f"taylor takes orders {MIN_ORDER} to {MAX_ORDER}, not {order}")
-        euler, c0, T, loads, breaks, flags = scene.cached("taylor", lambda: kernel_constants(scene))
-        out = np.empty((t.shape[0], 8))
+        c0, T, flags = scene.cached("taylor", lambda: kernel_constants(scene))
+        model = scene.model
         y = initial_state(scene.q0, scene.omega0)
-        out[0] = y
         counters = np.zeros(1, dtype=np.int64)
         clock = {"t": float(t[0])}
 
-        def advance(i: int, budget: int) -> tuple[int, int, int]:
+        def advance(times: np.ndarray, out: np.ndarray, i: int, budget: int) -> tuple[int, int, int]:
             before = int(counters[0])
-            status, i, clock["t"] = kernel.taylor_advance(y, clock["t"], t, out, i, order, settings.rtol, settings.atol, budget,
-                                                          euler, c0, T, loads, breaks, flags, counters)
+            status, i, clock["t"] = kernel.taylor_advance(y, clock["t"], times, out, i, order, settings.rtol, settings.atol, budget,
+                                                          model, c0, T, flags, counters)
             return status, i, int(counters[0]) - before
 
-        def describe(status: int, i: int) -> str:
-            return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], t, i, out)
+        def describe(status: int, times: np.ndarray, out: np.ndarray, i: int) -> str:
+            return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], times, i, out)
 
-        solution = run_chunks(t, out, advance, settings.max_steps, progress, describe)
+        solution = run_chunks(t, y, advance, settings.max_steps, progress, describe)
         solution.steps = int(counters[0])
         solution.details = {"order": order, "rtol": settings.rtol, "atol": settings.atol}
         return solution
 
 
 def kernel_constants(scene: Scene) -> tuple:
-    """The kernel's per-scene arguments: Euler coefficients, the force map (c₀, T), the loads,
-    breakpoints and (has_products, has_space, has_work)."""
+    """The kernel's per-scene arguments besides ``scene.model``: the force map (c₀, T) and
+    (has_products, has_space, has_work); expressions need the products (their γ, Rᵀ M)."""
     loads = scene.loads
     forces = active_forces(loads)
     c0, T = kernel.force_map(forces)
     has_space = bool(np.any(loads.terms[:, 0] == SPACE) or np.any(loads.tables[:, 0] == SPACE))
-    flags = (len(forces) > 0 or has_space, has_space, has_nonconservative(loads))
-    return euler_coefficients(scene.moments), c0, T, loads, breakpoints(loads), flags
+    flags = (len(forces) > 0 or has_space or loads.expressions is not None, has_space, has_nonconservative(loads))
+    return c0, T, flags
 
 
 METHOD = Taylor()

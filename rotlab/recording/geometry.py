@@ -1,7 +1,8 @@
 """Static geometry that explains a run in the 3D view.
 
-* the path of the tip of the symmetry axis (Lagrange top) or of body z, on a sphere of radius
-  ``reach`` (nutation loops and cusps);
+* the path of the tip of the reference axis (``reference_body_axis``: the symmetry axis of a
+  Lagrange top, else the principal axis nearest L(t0) — the spin axis, which flips in the
+  Dzhanibekov scene), on a sphere of radius ``reach`` (nutation loops and cusps);
 * the field direction, where a uniform field acts;
 * torque-free bodies — Poinsot's construction, with ω drawn at the ω-arrow scale s: the
   herpolhode (tip of s·ω in space) lies on the invariable plane ⊥ L at distance s·2T/|L| from
@@ -39,12 +40,21 @@ class Geometry:
     invariable_plane: Plane | None
 
 
+def reference_body_axis(scene, L0_body: np.ndarray) -> tuple[np.ndarray, str]:
+    """(unit axis in the user's body frame, name): the symmetry axis of a Lagrange top; else the
+    principal axis nearest L(t0), pointing along it (body z when L(t0) = 0)."""
+    if scene.symmetry_axis is not None:
+        return scene.axes @ scene.symmetry_axis, "symmetry axis tip"
+    principal = scene.axes.T  # rows: principal axes in the user's body frame
+    if not np.any(L0_body):
+        return np.array([0.0, 0.0, 1.0]), "body z tip"
+    k = int(np.argmax(np.abs(principal @ L0_body)))
+    return principal[k] * (1.0 if principal[k] @ L0_body >= 0.0 else -1.0), "spin axis tip"
+
+
 def scene_geometry(traj: Trajectory, unit_q: np.ndarray, omega_space: np.ndarray, omega_scale: float, reach: float) -> Geometry:
     scene = traj.scene
-    if scene.symmetry_axis is not None:
-        axis, label = scene.axes @ scene.symmetry_axis, "symmetry axis tip"
-    else:
-        axis, label = np.array([0.0, 0.0, 1.0]), "body z tip"
+    axis, label = reference_body_axis(scene, traj.L_body[0] if len(traj.t) else np.zeros(3))
     tips = quat.rotate_to_space_array(unit_q, np.broadcast_to(reach * axis, unit_q.shape[:-1] + (3,)))
     herpolhode = polhode = plane = None
     if scene.kind == "torque_free" and len(traj.t) and np.linalg.norm(traj.L_space[0]) > 0.0:

@@ -5,7 +5,9 @@ Timeline ``sim_time`` (duration).  Vectors name their frame in the path or the s
 
 from __future__ import annotations
 
-import rerun as rr
+from dataclasses import dataclass
+
+import numpy as np
 import rerun.blueprint as rrb
 
 TIMELINE = "sim_time"
@@ -15,8 +17,8 @@ BODY_SHAPE = "/world/body/shape"
 BODY_AXES = "/world/body/axes"
 BODY_ARM = "/world/body/arm"  # fixed point → centre of mass
 BODY_POLHODE = "/world/body/polhode"  # torque-free: tip of scaled ω in the body frame
-AXIS_PATH = "/world/axis_path"  # static: path of the symmetry-axis (or body z) tip
-AXIS_TIP = "/world/axis_tip"  # the tip now
+AXIS_PATH = "/world/axis_path"  # static: path of the reference-axis tip (symmetry axis, else the spin axis)
+AXIS_TIP = "/world/axis_tip"  # the tip at each sample (drawn over the trailing window: the recent trace)
 FIELD = "/world/gravity"  # direction of the uniform field
 HERPOLHODE = "/world/herpolhode"  # torque-free: tip of scaled ω in space
 INVARIABLE_PLANE = "/world/invariable_plane"  # torque-free: plane ⊥ L carrying the herpolhode
@@ -30,31 +32,117 @@ INVARIANTS = "/invariants"  # /invariants/<name>: relative drift
 INVARIANTS_LOG = "/invariants_log10"  # /invariants_log10/<name>: log10 |relative drift| (plotted)
 EULER_ANGLES = "/euler_angles"  # (ψ, θ, φ) rad
 INFO = "/info"  # TextDocument: scenario, method, run statistics
+# extensions (#13): readable Euler angles, trails, Poinsot's energy ellipsoid, loads
+EULER_THETA = "/euler/theta"  # θ nutation (deg where the scenario uses degrees, else rad)
+EULER_PSI = "/euler/psi"  # ψ precession wrapped to one turn
+EULER_SPIN_RATE = "/euler/spin_rate"  # dφ/dt (deg/s where the scenario uses degrees, else rad/s)
+LABELS_3D = "/world/labels"  # every 3D label (ω, L, g, loads, x, y, z) just beyond its arrow's tip, space frame;
+#                              a label that would overlap another in the default view is NaN (not drawn)
+HERPOLHODE_TRAIL = "/world/herpolhode_trail"  # torque-free: the same for the herpolhode
+POLHODE_TRAIL = "/world/body/polhode_trail"  # torque-free: the same for the polhode (body frame)
+ENERGY_ELLIPSOID = "/world/body/energy_ellipsoid"  # torque-free: x·Ix = s²·2T, fixed in the body
+LOADS_3D = "/world/loads"  # /world/loads/<symbol>: one arrow per load at its point (space frame)
+LOAD_TORQUE_BODY = "/loads/torque_body"  # [M1, M2, M3] of the non-conservative loads, body frame
+LOAD_TORQUE_SPACE = "/loads/torque_space"  # the same, space frame
+LOAD_POWER = "/loads/power"  # P = M·ω of the non-conservative loads, W
+TRAILS = (AXIS_TIP, HERPOLHODE_TRAIL, POLHODE_TRAIL)  # drawn over the trailing window
+
+LEGEND_HEADROOM = 0.45  # a plot with a legend gets this fraction of its data span above the data
 
 
-def blueprint(invariants: list[str], euler_angles: bool, energy_range: tuple[float, float] | None = None) -> rrb.Blueprint:
-    """The default layout.  ``energy_range`` fixes the energy plot's axis (so that a constant
-    energy is drawn flat, not zoomed onto its rounding noise)."""
-    energy_axis = None if energy_range is None else rrb.ScalarAxis(range=energy_range)
-    plots = [
-        rrb.TimeSeriesView(origin=OMEGA, name="ω, body frame (rad/s)"),
-        rrb.TimeSeriesView(origin=L_SPACE, name="L, space frame (kg·m²/s)"),
-        rrb.TimeSeriesView(origin=ENERGY, name="Energy (J)", axis_y=energy_axis),
-        rrb.TimeSeriesView(origin=INVARIANTS_LOG, name="Invariant drift, log10 |relative|"),
+def plot_range(values: np.ndarray, legend: bool, min_span: float = 0.0) -> tuple[float, float] | None:
+    """A y range for a plot: the data (widened to ``min_span``), plus room above it for the
+    legend in the top corner, so that the legend never covers a line."""
+    finite = values[np.isfinite(values)]
+    if not finite.size:
+        return None
+    low, high = float(finite.min()), float(finite.max())
+    span = max(high - low, min_span, 1e-300)
+    if high - low < span:
+        middle = 0.5 * (low + high)
+        low, high = middle - 0.5 * span, middle + 0.5 * span
+    return low - 0.05 * span, high + (LEGEND_HEADROOM if legend else 0.05) * span
+
+
+@dataclass(frozen=True)
+class Plot:
+    """One time-series view: its title, its entities and whether it needs a legend."""
+
+    name: str
+    origin: str
+    legend: bool
+    y_range: tuple[float, float] | None = None
+    contents: tuple[str, ...] = ()
+
+
+MOTION, ENERGY_TAB = "Motion", "Energy and loads"
+MAX_PLOTS_ONE_TAB = 6  # up to a 2 × 3 grid in one tab; more: motion and energy in two tabs
+
+
+def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_energy_span: float) -> dict[str, list[Plot]]:
+    """The plots of a run by tab (``MOTION``, ``ENERGY_TAB``), in reading order; only those
+    whose entities exist in ``series``."""
+    def rng(entity: str, legend: bool, min_span: float = 0.0):
+        return plot_range(series[entity][0], legend, min_span) if entity in series else None
+
+    motion = [
+        Plot("ω body (rad/s)", OMEGA, True, rng(OMEGA, True)),
+        Plot("L space (kg·m²/s)", L_SPACE, True, rng(L_SPACE, True)),
     ]
-    if euler_angles:
-        plots.append(rrb.TimeSeriesView(origin=EULER_ANGLES, name="Euler angles ψ, φ (rad)",
-                                        overrides={EULER_ANGLES: rr.SeriesLines.from_fields(visible_series=[True, False, True])}))
-        plots.append(rrb.TimeSeriesView(origin=EULER_ANGLES, name="Nutation θ (rad)",
-                                        overrides={EULER_ANGLES: rr.SeriesLines.from_fields(visible_series=[False, True, False])}))
+    if EULER_THETA in series:
+        motion += [Plot(f"θ nutation ({angle_unit})", EULER_THETA, False, rng(EULER_THETA, False)),
+                   Plot(f"ψ precession, one turn ({angle_unit})", EULER_PSI, False, rng(EULER_PSI, False)),
+                   Plot(f"dφ/dt spin rate ({angle_unit}/s)", EULER_SPIN_RATE, False, rng(EULER_SPIN_RATE, False))]
+    out: list[Plot] = []
+    energy_names = series[ENERGY][1]
+    out.append(Plot("Energy (J)", ENERGY, len(energy_names) > 1,
+                    rng(ENERGY, len(energy_names) > 1, min_energy_span)))
+    logs = tuple(e for e in series if e.startswith(INVARIANTS_LOG + "/"))
+    if logs:
+        values = np.column_stack([series[e][0][:, 0] for e in logs])
+        out.append(Plot("Invariant drift, log10 |relative|", INVARIANTS_LOG, True, plot_range(values, True)))
+    if LOAD_TORQUE_BODY in series:
+        out += [Plot("M of the loads, body frame (N·m)", LOAD_TORQUE_BODY, True, rng(LOAD_TORQUE_BODY, True)),
+                Plot("M of the loads, space frame (N·m)", LOAD_TORQUE_SPACE, True, rng(LOAD_TORQUE_SPACE, True)),
+                Plot("Power of the loads (W)", LOAD_POWER, False, rng(LOAD_POWER, False))]
+    if len(motion) + len(out) <= MAX_PLOTS_ONE_TAB:
+        return {MOTION: motion + out}
+    return {MOTION: motion, ENERGY_TAB: out}
+
+
+def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None, active: str = MOTION,
+              eye: tuple[np.ndarray, np.ndarray] | None = None) -> rrb.Blueprint:
+    """The default layout: the 3D view (and the run panel as a tab) on the left, on the right the
+    plots in tabs (``groups``), each a two-column grid; ``active`` is the tab shown first; ``eye``
+    (position, look target) the 3D view's default camera (the one labels are laid out for).  Trails show the last ``trail_seconds`` before the time cursor
+    (the whole paths stay, dimmed); legends sit in the top-right corner, above the data."""
+    overrides = {}
+    if trail_seconds is not None:
+        window = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.cursor_relative(seconds=-trail_seconds),
+                                      end=rrb.TimeRangeBoundary.cursor_relative())
+        overrides = {trail: rrb.VisibleTimeRanges([window]) for trail in TRAILS}
+    names = [name for name, plot_list in groups.items() if plot_list]
+    tabs = [rrb.Grid(*[_view(p) for p in groups[name]], grid_columns=2, name=name) for name in names]
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Tabs(
-                rrb.Spatial3DView(origin="/world", name="Body (space frame)"),
+                rrb.Spatial3DView(origin="/world", name="Body (space frame)", overrides=overrides,
+                                  eye_controls=None if eye is None else rrb.EyeControls3D(
+                                      position=eye[0], look_target=eye[1], eye_up=[0.0, 0.0, 1.0])),
                 rrb.TextDocumentView(origin=INFO, name="Run"),
             ),
-            rrb.Vertical(*plots),
-            column_shares=[3, 2],
+            rrb.Tabs(*tabs, active_tab=names.index(active) if active in names else 0),
+            column_shares=[1, 1],
         ),
         collapse_panels=True,
+    )
+
+
+
+
+def _view(p: Plot) -> rrb.TimeSeriesView:
+    return rrb.TimeSeriesView(
+        origin=p.origin, name=p.name,
+        plot_legend=rrb.PlotLegend(corner="RightTop", visible=p.legend),
+        axis_y=None if p.y_range is None else rrb.ScalarAxis(range=p.y_range),
     )

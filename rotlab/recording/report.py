@@ -4,11 +4,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from rotlab.trajectory import Trajectory
+from rotlab.trajectory import RunSummary
 
 
-def run_report(traj: Trajectory) -> str:
-    scene, stats = traj.scene, traj.stats
+SCENE_KEY = {  # what each drawn thing is (the 3D view's labels are short symbols)
+    "x y z": "body axes, red / green / blue (the same colours as the x, y, z and p, q, r series in every plot)",
+    "ω": "angular velocity, space frame (orange)",
+    "L": "angular momentum, space frame (violet)",
+    "cyan trace": "tip of the reference axis (the symmetry axis, else the spin axis: the principal axis nearest L at the start): bright over the last few periods, the whole path dimmed",
+    "g": "direction of the uniform field (grey)",
+    "F1, M1, mg": "applied loads (magenta): a force at its point of application, a torque at the fixed point, space frame",
+    "orange traces": "torque-free: herpolhode on the invariable plane (space) and polhode (body), tips of s·ω",
+    "orange wireframe": "torque-free: the energy ellipsoid ω·Iω = 2T (scaled by s), fixed in the body; it rolls on the invariable plane, touching it at the tip of s·ω",
+}
+
+
+def run_report(run: RunSummary, scales: dict[str, tuple[float, str]] | None = None) -> str:
+    """The report; ``scales``: arrow symbol → (length per unit, unit) as drawn in the 3D view."""
+    scene, stats = run.scene, run.stats
     scenario = scene.scenario
     lines = [f"# {scenario.title or 'rotlab run'}", ""]
     if scenario.description:
@@ -17,14 +30,18 @@ def run_report(traj: Trajectory) -> str:
         f"- scene: **{scene.kind.replace('_', '-')}** — {scene.kind_reason}",
         f"- principal moments: {np.array2string(scene.moments, precision=6)} kg·m²",
         f"- method: **{stats.method}** — {stats.reason}",
-        f"- samples: {traj.t.shape[0]:,} from {traj.t[0] if len(traj.t) else 0:g} s to {traj.t[-1] if len(traj.t) else 0:g} s",
+        f"- samples: {run.samples:,} from {run.start:g} s to {run.end:g} s",
         f"- steps: {stats.steps:,} accepted, {stats.rejected_steps:,} rejected; {stats.rhs_evaluations:,} evaluations of f",
         f"- integration wall time: {stats.seconds:.4g} s",
     ]
     for key, value in stats.details.items():
         lines.append(f"- {key}: {value:.6g}" if isinstance(value, float) else f"- {key}: {value}")
     lines += ["", "| invariant | max relative drift |", "|---|---|"]
-    lines += [f"| {name} | {drift:.3e} |" for name, drift in traj.max_drift().items()]
+    lines += [f"| {name} | {drift:.3e} |" for name, drift in run.max_drift().items()]
     if stats.failure:
         lines += ["", f"**Run stopped:** {stats.failure}"]
+    if scales:
+        lines += ["", "## The 3D view", "", "| symbol | what |", "|---|---|"]
+        lines += [f"| {symbol} | {what} |" for symbol, what in SCENE_KEY.items()]
+        lines += ["", "Arrow scales: " + "; ".join(f"{symbol}: {value:.3g} {unit}" for symbol, (value, unit) in scales.items())]
     return "\n".join(lines) + "\n"

@@ -1,9 +1,13 @@
 """``rotlab snapshot``: a PNG of the Rerun viewer itself showing a recording at time T.
 
 A headless viewer (``rerun --headless --renderer vulkan``) is started on a free local port and
-driven through ``rerun.experimental.ViewerClient``: open the file, set the time cursor, let the
-viewer settle (start-up notices fade, plots auto-range), save a screenshot, quit.  Without a GPU
-this needs Mesa's software Vulkan driver (Debian: mesa-vulkan-drivers, libvulkan1).
+driven through ``rerun.experimental.ViewerClient``: open the file, wait until the viewer reports
+nothing left loading, set the time cursor, then take frames until two consecutive frames are
+identical (the data is drawn, plots have auto-ranged, start-up notices have faded) and keep that
+frame.  A small recording is shot in ~3 s, a large one waits as long as it takes to load (up to
+``SETTLE_LIMIT``).  Works for run and sweep recordings (any recording on the ``sim_time``
+timeline).  Without a GPU this needs Mesa's software Vulkan driver (Debian: mesa-vulkan-drivers,
+libvulkan1).
 """
 
 from __future__ import annotations
@@ -22,8 +26,10 @@ from rotlab.errors import InputError, RunFailure
 from rotlab.recording import layout
 
 SOFTWARE_VULKAN = "/usr/share/vulkan/icd.d/lvp_icd*.json"
-SETTLE_SECONDS = 9.0  # the viewer's start-up notices fade after ~8 s
+SETTLE_LIMIT = 120.0  # s: give up waiting for a still frame after this long
 CONNECT_SECONDS = 30.0
+POLL_SECONDS = 0.2
+NOTICE_SECONDS = 5.0  # s after start-up: the viewer's start-up notices have faded (seen up to ~3 s)
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -57,13 +63,24 @@ def vulkan_environment() -> dict[str, str]:
 
 
 def recording_span(path: Path) -> tuple[float, float]:
-    from rotlab.recording.reader import read_series
+    """(first, last) time (s) of any temporal data on the ``sim_time`` timeline."""
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
 
-    t, _ = read_series(path, layout.OMEGA)
-    return float(t[0]), float(t[-1])
+    low = high = None
+    for chunk in RrdReader(str(path)).stream().filter(is_static=False).to_chunks():
+        batch = chunk.to_record_batch()
+        if layout.TIMELINE not in batch.schema.names or not batch.num_rows:
+            continue
+        ns = batch.column(layout.TIMELINE).cast(pa.int64()).to_numpy()
+        low = ns.min() if low is None else min(low, ns.min())
+        high = ns.max() if high is None else max(high, ns.max())
+    if low is None:
+        raise ValueError("no data on the sim_time timeline")
+    return float(low) * 1e-9, float(high) * 1e-9
 
 
-def snapshot(recording: Path, output: Path, at: float | None, size: tuple[int, int], settle: float = SETTLE_SECONDS) -> Path:
+def snapshot(recording: Path, output: Path, at: float | None, size: tuple[int, int], settle_limit: float = SETTLE_LIMIT) -> Path:
     """Write a PNG of the viewer showing ``recording`` at time ``at`` (s; None: the end)."""
     from rerun.experimental import ViewerClient
 
@@ -75,10 +92,11 @@ def snapshot(recording: Path, output: Path, at: float | None, size: tuple[int, i
     try:
         start, end = recording_span(recording)
     except Exception:
-        raise InputError(str(recording), "not a rotlab recording (no /body/omega series)") from None
+        raise InputError(str(recording), "not a rotlab recording (no data on the sim_time timeline)") from None
     if at is not None and not start <= at <= end:
         raise InputError("--time", f"{at:g} s is outside the recording's span [{start:g}, {end:g}] s")
     port = _free_port()
+    started = time.monotonic()
     viewer = subprocess.Popen(
         [rerun_executable(), "--headless", "--renderer", "vulkan", "--window-size", f"{size[0]}x{size[1]}",
          "--port", str(port), "--hide-welcome-screen"],
@@ -90,9 +108,11 @@ def snapshot(recording: Path, output: Path, at: float | None, size: tuple[int, i
         client = _connect(ViewerClient, port, viewer)
         try:
             client.open(str(recording.resolve()))
+            _wait_loaded(client, settle_limit)
             client.set_time(layout.TIMELINE, duration=end if at is None else at, play_state="paused")
-            time.sleep(settle)
-            client.save_screenshot(str(tmp.resolve()))
+            tmp.write_bytes(_still_frame(client, started + NOTICE_SECONDS, settle_limit))
+        except RunFailure:
+            raise
         except Exception as exc:  # the viewer's gRPC errors: report, don't trace back
             raise RunFailure(f"the headless viewer failed: {type(exc).__name__}: {exc}") from None
         if not tmp.exists():
@@ -121,6 +141,31 @@ def _stop(viewer: subprocess.Popen, grace: float = 10.0) -> None:
                 return
             time.sleep(0.1)
     viewer.poll()
+
+
+def _wait_loaded(client, limit: float) -> None:
+    """Poll the viewer until it reports nothing left loading and an active recording."""
+    deadline = time.monotonic() + limit
+    while time.monotonic() < deadline:
+        state = client.get_state()
+        if not state.loading and state.active_recording is not None:
+            return
+        time.sleep(POLL_SECONDS)
+    raise RunFailure(f"the viewer was still loading the recording after {limit:g} s")
+
+
+def _still_frame(client, not_before: float, limit: float) -> bytes:
+    """Frames until two consecutive ones, the second taken after ``not_before`` (monotonic s),
+    are identical (drawn and settled); that frame (PNG)."""
+    deadline = time.monotonic() + limit
+    previous = client.take_screenshot()
+    while time.monotonic() < deadline:
+        time.sleep(POLL_SECONDS)
+        frame = client.take_screenshot()
+        if frame == previous and time.monotonic() >= not_before:
+            return frame
+        previous = frame
+    raise RunFailure(f"the viewer did not settle on a still frame within {limit:g} s")
 
 
 def _free_port() -> int:

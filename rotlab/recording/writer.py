@@ -1,37 +1,73 @@
-"""Write a ``Trajectory`` to a Rerun ``.rrd`` file: columns sent in chunks (``send_columns``,
-never one ``log`` per sample), to a temporary file renamed only when complete."""
+"""Write a run to Rerun: columns sent in chunks (``send_columns``, never one ``log`` per
+sample) through one ``RecordingSink`` (``rotlab.recording.sink``: checked writes, verified
+file, atomic rename, live viewers).
+
+``RecordingWriter`` takes a run chunk by chunk (``write``) as it is produced, so a streamed run
+holds only the current chunk.  The state and the invariants (``FULL_RATE``) are written at every
+sample; the derived and visual series (pose, arrows, axis tip, log drifts, Euler angles, L in
+space) at every ``stride``-th sample.  The static part is written twice: at the start (so that
+a live viewer has the body and the layout at once) and at the end, from a thinned copy of the
+run (``Thinned``: at most 2·MAX_PATH_POINTS samples) for the paths and the run report.
+"""
 
 from __future__ import annotations
 
+import math
 import os
-import uuid
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import rerun as rr
 
-from rotlab.core import quaternion as quat
+from rotlab import invariants
 from rotlab.core.quaternion import rotate_to_space_array
 from rotlab.errors import InputError, RunFailure
-from rotlab.recording import layout
-from rotlab.recording.geometry import Geometry, decimate, scene_geometry
+from rotlab.recording import labels, layout, visuals
+from rotlab.recording.geometry import MAX_PATH_POINTS, Geometry, scene_geometry
 from rotlab.recording.report import run_report
 from rotlab.recording.shapes import Ellipsoid, equivalent_ellipsoid
-from rotlab.trajectory import Trajectory
+from rotlab.recording.sink import RecordingSink
+from rotlab.trajectory import RunSummary, Trajectory
 
-CHUNK_ROWS = 4096
+CHUNK_ROWS = 16384  # rows per send_columns call: Rerun's cost per row is 4× lower than at 4096
 LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
-AXIS_COLORS = [(230, 60, 60), (60, 200, 60), (70, 110, 240)]
+FULL_RATE = (layout.QUATERNION, layout.OMEGA, layout.INVARIANTS + "/")  # every sample: the state and the drifts
 
 
-def check_output_path(path: Path) -> None:
-    """Fail early (before a long run) when the output cannot be written: a file is actually
-    created and removed beside it (permission bits say little when running as root)."""
-    where = f"output {path}"
-    if path.exists() and path.is_dir():
-        raise InputError(where, "is a directory: give a file name ending in .rrd")
+def check_output_path(path: Path, inputs: tuple[Path, ...] = ()) -> None:
+    """Fail early (before a long run) when the output cannot be written: it must be (or become) a
+    regular file that is not one of ``inputs``, with a name the file system takes, in a directory
+    we can write in (a file is actually created and removed beside it: permission bits say
+    little when running as root)."""
+    where = f"output {path}" if _printable(path) else f"output {os.fsdecode(path)!r}"
+    try:
+        os.fsencode(path).decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(where, "the name is not valid UTF-8: choose a plain name with -o") from None
     parent = path.parent if str(path.parent) else Path(".")
+    try:
+        max_name = os.pathconf(parent, "PC_NAME_MAX") if parent.is_dir() else 255
+    except (OSError, ValueError):
+        max_name = 255
+    if len(os.fsencode(path.name)) + 32 > max_name:  # the temporary file's name adds ".", the pid and a tag
+        raise InputError(where, f"the name is too long for the file system ({len(os.fsencode(path.name))} bytes; "
+                                f"at most {max_name - 32}): choose a shorter name with -o")
+    try:
+        existing = os.stat(path)
+    except FileNotFoundError:
+        existing = None
+    except OSError as exc:
+        raise InputError(where, f"cannot be used ({exc.strerror}): choose another path with -o") from None
+    if existing is not None:
+        if stat.S_ISDIR(existing.st_mode):
+            raise InputError(where, "is a directory: give a file name ending in .rrd")
+        if not stat.S_ISREG(existing.st_mode):
+            raise InputError(where, "is not a regular file (a device, FIFO or socket): give a file name ending in .rrd")
+        for source in inputs:
+            if source.exists() and os.path.samefile(path, source):
+                raise InputError(where, f"is the input {source}: give another name with -o")
     if not parent.is_dir():
         raise InputError(where, f"directory {parent} does not exist: create it or choose another path")
     probe = parent / f".{path.name}.{os.getpid()}.probe"
@@ -42,82 +78,175 @@ def check_output_path(path: Path) -> None:
         raise InputError(where, f"cannot write in {parent} ({exc.strerror}): choose another path with -o") from None
 
 
+# Bytes per sample in the file (LZ4-compressed columns, measured by benchmarks/bench_stream.py):
+# the full-rate series, and the visual series per sample they keep.
+FULL_RATE_BYTES = 155.0
+VISUAL_BYTES = 320.0
+WRITE_RATE = 0.5e6  # samples per second, full layout (same source; a loaded 2-core machine)
+
+
+def estimated_bytes(samples: int, visual_samples: int) -> float:
+    """The recording's size: every sample of the state and invariants, ≤ ``visual_samples`` of the rest."""
+    return samples * FULL_RATE_BYTES + min(samples, visual_samples) * VISUAL_BYTES
+
+
+def check_size(scenario, max_megabytes: float) -> None:
+    """Refuse (before any work) a run whose recording would exceed ``max_megabytes``, saying
+    how large and how long it would be and how to proceed."""
+    n, visual = scenario.time.sample_count, scenario.output.visual_samples
+    size = estimated_bytes(n, visual)
+    if size > max_megabytes * 1e6:
+        raise InputError(
+            "output.max_megabytes",
+            f"the recording would take about {size / 1e6:,.0f} MB ({n:,} samples; writing alone ≈ {n / WRITE_RATE:,.0f} s), "
+            f"more than the limit of {max_megabytes:g} MB: to proceed pass --max-megabytes {math.ceil(size / 1e6 * 1.1)} "
+            "(or set [output] max_megabytes), or lower time.sample_rate",
+        )
+
+
+def _printable(path: Path) -> bool:
+    return str(path).isprintable()
+
+
 def partial_path(path: Path) -> Path:
     """Where the valid part of an incomplete run goes: ``name.partial.rrd`` beside ``path``."""
     return path.with_name(f"{path.stem}.partial{path.suffix or '.rrd'}")
 
 
 def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_ROWS) -> Path:
-    """Write ``traj`` to ``path`` atomically; returns the path."""
+    """Write a whole ``traj`` to ``path`` atomically (every series at every sample); returns the path."""
     path = Path(path)
     check_output_path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    sink = RecordingSink(path)
     try:
-        with np.errstate(over="ignore", invalid="ignore"):  # display-only float32 casts of a run that blew up
-            views = _views(traj)
-            rec = rr.RecordingStream("rotlab", recording_id=uuid.uuid4())
-            bp = layout.blueprint(list(traj.invariants), traj.euler_angles is not None, energy_range(views.series))
-            rec.save(tmp, default_blueprint=bp)
-            _write_static(rec, traj, views)
-            _write_series(rec, traj, views, chunk_rows)
-        rec.flush()
-        rec.disconnect()
-        os.replace(tmp, path)
-    except (OSError, RuntimeError) as exc:  # disk full, file system gone: nothing half-written stays
-        tmp.unlink(missing_ok=True)
+        writer = RecordingWriter(sink, stride=1, chunk_rows=chunk_rows)
+        writer.write(traj, 0)
+        writer.finish(traj.summary(), traj)
+        final = sink.close()
+    except (OSError, RuntimeError) as exc:  # Rerun's encoder or the file system
+        sink.abort()
         raise RunFailure(f"could not write the recording {path}: {exc}") from None
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        sink.abort()
         raise
-    return path
+    assert final is not None
+    return final
 
 
-def energy_range(all_series: dict[str, tuple[np.ndarray, list[str]]], min_span: float = 0.02) -> tuple[float, float] | None:
-    """The energy plot's y range: the data, widened to at least ``min_span`` of the energy scale."""
-    values = all_series[layout.ENERGY][0]
-    finite = values[np.isfinite(values)]
-    if not finite.size:
-        return None
-    low, high = float(finite.min()), float(finite.max())
-    span = max(high - low, min_span * max(abs(low), abs(high), 1e-300))
-    middle = 0.5 * (low + high)
-    return middle - 0.55 * span, middle + 0.55 * span
+class RecordingWriter:
+    """Writes consecutive chunks of one run (``Trajectory`` objects of successive samples)."""
+
+    def __init__(self, sink: RecordingSink, stride: int = 1, chunk_rows: int = CHUNK_ROWS) -> None:
+        self.sink, self.rec, self.stride, self.chunk_rows = sink, sink.rec, max(1, int(stride)), chunk_rows
+        self.scales: tuple[float, float, dict[str, float]] | None = None  # ω, L, load arrow lengths per unit: fixed by the first chunk
+        self.energy: tuple[float, float] | None = None
+
+    def _start(self, first: Trajectory) -> None:
+        """Blueprint and static styling from the first chunk (a live viewer shows them at once)."""
+        views = _views(first)
+        self.scales = (views.omega_scale, views.L_scale, views.load_scales)
+        self.sink.open(run_blueprint(first, views))
+        _write_static(self.rec, first, views, first.summary())
+
+    def write(self, chunk: Trajectory, start: int) -> None:
+        """Send the samples ``start, start + 1, …`` of ``chunk``; raises ``RunFailure`` if the file
+        could not take the previous ones."""
+        self.sink.check()
+        if not chunk.t.shape[0]:
+            return
+        with np.errstate(over="ignore", invalid="ignore"):  # display-only float32 casts of a run that blew up
+            if self.scales is None:
+                self._start(chunk)
+            _write_full_rate(self.rec, chunk, self.chunk_rows)
+            picked = np.arange((-start) % self.stride, chunk.t.shape[0], self.stride)
+            if picked.size:
+                thin = chunk if self.stride == 1 else chunk.take(picked)
+                _write_visual(self.rec, thin, _views(thin, self.scales), self.chunk_rows)
+        self.sink.drain()
+
+    def finish(self, summary: RunSummary, thinned: Trajectory | None) -> None:
+        """The static part again, from the whole run: paths, Poinsot construction, run report."""
+        self.sink.check()
+        if thinned is None or not thinned.t.shape[0]:
+            return
+        with np.errstate(over="ignore", invalid="ignore"):
+            if self.scales is None:
+                self._start(thinned)
+            views = _views(thinned, self.scales)
+            self.sink.update_blueprint(run_blueprint(thinned, views))  # plot ranges from the whole run
+            _write_static(self.rec, thinned, views, summary)
+
+
+class Thinned:
+    """At most 2·MAX_PATH_POINTS samples of a run (t and principal-frame state), every k-th
+    with k doubling as the run grows: the static paths of a run of any length."""
+
+    def __init__(self, limit: int = 2 * MAX_PATH_POINTS) -> None:
+        self.limit, self.every = limit, 1
+        self.t: list[np.ndarray] = []
+        self.state: list[np.ndarray] = []
+        self.count = 0
+
+    def add(self, start: int, t: np.ndarray, state: np.ndarray) -> None:
+        first = (-start) % self.every
+        self.t.append(t[first :: self.every].copy())
+        self.state.append(state[first :: self.every].copy())
+        self.count += self.t[-1].shape[0]
+        if self.count > self.limit:
+            t_all, s_all = self.arrays()
+            self.t, self.state = [t_all[::2]], [s_all[::2]]  # the kept samples are multiples of 2·every
+            self.count, self.every = self.t[0].shape[0], 2 * self.every
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        if not self.t:
+            return np.zeros(0), np.zeros((0, 8))
+        return np.concatenate(self.t), np.concatenate(self.state)
+
+
+def run_blueprint(traj: Trajectory, views: _Views):
+    """The layout for this run: its plots (``layout.plots``) and the trails' window."""
+    all_series = views.series
+    energy = all_series[layout.ENERGY][0]
+    finite = np.abs(energy[np.isfinite(energy)])
+    min_energy_span = 0.02 * float(finite.max()) if finite.size else 0.0  # a constant energy is drawn flat
+    unit = "deg" if visuals.degrees_wanted(traj.scene) else "rad"
+    window = visuals.trail_window(traj.t, traj.omega) if len(traj.t) else None
+    groups = layout.plots(all_series, unit, min_energy_span)
+    active = layout.ENERGY_TAB if traj.scene.has_work else layout.MOTION  # loads at work: show them first
+    return layout.blueprint(groups, window, active, labels.camera(visuals.reach(traj, views)))
 
 
 def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
-    """Every time series of the layout: entity → ((N, k) float64 values, k series names)."""
+    """Every time series of the layout: entity → ((N, k) float64 values, k series names).
+    Names are short symbols (the plot titles carry units and frames)."""
     q = traj.quaternion
     out: dict[str, tuple[np.ndarray, list[str]]] = {
         layout.QUATERNION: (q, ["q0", "q1", "q2", "q3"]),
-        layout.OMEGA: (traj.omega, ["p = ω_x (rad/s)", "q = ω_y (rad/s)", "r = ω_z (rad/s)"]),
-        layout.L_SPACE: (traj.L_space, ["L_X space (kg·m²/s)", "L_Y space (kg·m²/s)", "L_Z space (kg·m²/s)"]),
+        layout.OMEGA: (traj.omega, ["p", "q", "r"]),
+        layout.L_SPACE: (traj.L_space, ["L_X", "L_Y", "L_Z"]),
     }
-    energy, names = [traj.kinetic], ["kinetic T (J)"]
+    energy, names = [traj.kinetic], ["T"]
     if traj.potential is not None:
         energy += [traj.potential, traj.total]
-        names += ["potential V (J)", "total T + V (J)"]
+        names += ["V", "T+V"]
     if traj.work is not None:
-        energy.append(traj.work)
-        names.append("work W of non-conservative loads (J)")
-    out[layout.ENERGY] = (np.column_stack(energy), names)
+        energy += [traj.work, traj.total - traj.work]
+        names += ["W", "H"]
+    out[layout.ENERGY] = (np.column_stack(energy), [ENERGY_LABELS[n] for n in names])
     for name, drift in traj.invariants.items():
         out[f"{layout.INVARIANTS}/{name}"] = (drift[:, None], [INVARIANT_LABELS.get(name, name)])
         with np.errstate(divide="ignore"):
             magnitude = np.log10(np.maximum(np.abs(drift), LOG_FLOOR))
-        out[f"{layout.INVARIANTS_LOG}/{name}"] = (magnitude[:, None], [f"log10 |{INVARIANT_LABELS.get(name, name)}|"])
+        out[f"{layout.INVARIANTS_LOG}/{name}"] = (magnitude[:, None], [INVARIANT_LABELS.get(name, name)])
     if traj.euler_angles is not None:
-        out[layout.EULER_ANGLES] = (traj.euler_angles, ["ψ precession (rad)", "θ nutation (rad)", "φ spin (rad)"])
+        out[layout.EULER_ANGLES] = (traj.euler_angles, ["ψ", "θ", "φ"])
+    out.update(visuals.euler_series(traj))
+    out.update(visuals.load_series(traj))
     return out
 
 
-INVARIANT_LABELS = {
-    "energy": "(H − H₀)/scale, H = T + V − W",
-    "quaternion_norm": "|Λ| − 1",
-    "L_norm": "(|L| − |L₀|)/|L₀|",
-    "L_space": "|L − L₀|/|L₀| (space frame)",
-    "L_vertical": "ΔL·up/|L₀| (space frame)",
-    "L_symmetry": "ΔL·e_sym/|L₀| (body frame)",
-}
+ENERGY_LABELS = {"T": "T", "V": "V", "T+V": "T+V", "W": "W", "H": "T+V−W"}
+INVARIANT_LABELS = invariants.LABELS  # one table of invariants (``rotlab.invariants``)
 
 
 @dataclass(frozen=True)
@@ -131,88 +260,72 @@ class _Views:
     L_scale: float  # arrow length per kg·m²/s
     geometry: Geometry
     series: dict[str, tuple[np.ndarray, list[str]]]  # every time series: see ``series``
+    load_scales: dict[str, float]  # arrow length per N and per N·m
 
 
-def _views(traj: Trajectory) -> _Views:
+def _views(traj: Trajectory, scales: tuple[float, float, dict[str, float]] | None = None) -> _Views:
+    """Display quantities of ``traj``; arrow ``scales`` (ω, L, loads) as given, else from ``traj``."""
     shape = equivalent_ellipsoid(traj.scene.scenario.body)
     unit_q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
     omega_space = rotate_to_space_array(unit_q, traj.omega)
-    omega_scale = _arrow_scale(omega_space, shape.size)
-    geometry = scene_geometry(traj, unit_q, omega_space, omega_scale, reach=1.3 * shape.size)
-    return _Views(shape, unit_q, omega_space, omega_scale, _arrow_scale(traj.L_space, shape.size), geometry, series(traj))
+    omega_scale, L_scale, load_scales = scales or (_arrow_scale(omega_space, visuals.OMEGA_LENGTH * shape.size),
+                                                   _arrow_scale(traj.L_space, visuals.L_LENGTH * shape.size),
+                                                   visuals.load_scales(traj, shape.size))
+    geometry = scene_geometry(traj, unit_q, omega_space, omega_scale, reach=visuals.AXES_LENGTH * shape.size)
+    return _Views(shape, unit_q, omega_space, omega_scale, L_scale, geometry, series(traj), load_scales)
 
 
-def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views) -> None:
-    shape, size, geo = views.shape, views.shape.size, views.geometry
-    rec.log(
-        layout.BODY_SHAPE,
-        rr.Ellipsoids3D(
-            half_sizes=[shape.half_sizes],
-            centers=[shape.center],
-            quaternions=[rr.Quaternion(xyzw=_xyzw(shape.orientation))],
-            colors=[(200, 170, 90)],
-            fill_mode="solid",
-        ),
-        static=True,
-    )
-    rec.log(
-        layout.BODY_AXES,
-        rr.Arrows3D(vectors=np.eye(3) * 1.3 * size, colors=AXIS_COLORS, labels=["x body", "y body", "z body"]),
-        static=True,
-    )
-    r_c = np.asarray(traj.scene.scenario.body.center_of_mass, dtype=float)
-    if np.any(r_c != 0.0):
-        rec.log(layout.BODY_ARM, rr.LineStrips3D([[np.zeros(3), r_c]], colors=[(40, 40, 40)], labels=["r_c"]), static=True)
-    rec.log(layout.AXIS_PATH, rr.LineStrips3D([decimate(geo.axis_tips)], colors=[(120, 190, 255)], radii=[0.004 * size]), static=True)
-    rec.log(layout.AXIS_TIP, rr.Points3D.from_fields(colors=[(120, 190, 255)], radii=[0.02 * size], labels=[geo.axis_label]), static=True)
-    if geo.field_up is not None:
-        rec.log(layout.FIELD, rr.Arrows3D(vectors=[-geo.field_up * 0.8 * size], origins=[geo.field_up * 1.6 * size],
-                                          colors=[(150, 150, 150)], labels=["g (field)"]), static=True)
-    if geo.invariable_plane is not None:
-        plane = geo.invariable_plane
-        rec.log(layout.INVARIABLE_PLANE, rr.Boxes3D(
-            half_sizes=[[plane.half_size, plane.half_size, 1e-3 * plane.half_size]], centers=[plane.center],
-            quaternions=[rr.Quaternion(xyzw=_xyzw(quat.between([0.0, 0.0, 1.0], plane.normal)))],
-            colors=[(90, 90, 140, 90)], fill_mode="solid", labels=["invariable plane (normal to L)"]), static=True)
-        rec.log(layout.HERPOLHODE, rr.LineStrips3D([geo.herpolhode], colors=[(240, 150, 30)], radii=[0.003 * size],
-                                                   labels=["herpolhode"]), static=True)
-        rec.log(layout.BODY_POLHODE, rr.LineStrips3D([geo.polhode], colors=[(255, 210, 120)], radii=[0.003 * size],
-                                                     labels=["polhode"]), static=True)
-    for entity, (_, names) in views.series.items():
-        rec.log(entity, rr.SeriesLines(names=names), static=True)
-    for entity, scale, label, color in ((layout.OMEGA_ARROW, views.omega_scale, "ω", (240, 150, 30)),
-                                        (layout.L_ARROW, views.L_scale, "L", (150, 60, 220))):
-        rec.log(entity, rr.Arrows3D.from_fields(labels=[f"{label} ×{scale:.3g}"], colors=[color]), static=True)
-    rec.log(layout.INFO, rr.TextDocument(run_report(traj), media_type="text/markdown"), static=True)
+def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views, summary: RunSummary) -> None:
+    visuals.log_static(rec, traj, views)
+    scales = {"ω": (views.omega_scale, "m per rad/s"), "L": (views.L_scale, "m per kg·m²/s"),
+              "F": (views.load_scales["force"], "m per N"), "M": (views.load_scales["torque"], "m per N·m")}
+    rec.log(layout.INFO, rr.TextDocument(run_report(summary, scales), media_type="text/markdown"), static=True)
 
 
-def _write_series(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chunk_rows: int) -> None:
-    n = traj.t.shape[0]
-    ns = np.round(traj.t * 1e9).astype(np.int64).astype("timedelta64[ns]")
+def _write_full_rate(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int) -> None:
+    """The ``FULL_RATE`` series (state and drifts), every sample of ``traj``."""
+    ns = _nanoseconds(traj.t)
+    full = {layout.QUATERNION: traj.quaternion, layout.OMEGA: traj.omega}
+    full.update({f"{layout.INVARIANTS}/{name}": drift[:, None] for name, drift in traj.invariants.items()})
+    for rows in _slices(traj.t.shape[0], chunk_rows):
+        index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
+        for entity, values in full.items():
+            rec.send_columns(entity, index, rr.Scalars.columns(scalars=values[rows]))
+
+
+def _write_visual(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chunk_rows: int) -> None:
+    """The derived and visual series (everything not ``FULL_RATE``) at the samples of ``traj``."""
+    ns = _nanoseconds(traj.t)
     vectors = {
         layout.OMEGA_ARROW: views.omega_space * views.omega_scale,
         layout.L_ARROW: traj.L_space * views.L_scale,
     }
-    for start in range(0, n, chunk_rows):
-        rows = slice(start, min(start + chunk_rows, n))
+    thin = {entity: values for entity, (values, _) in views.series.items() if not entity.startswith(FULL_RATE)}
+    for rows in _slices(traj.t.shape[0], chunk_rows):
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
-        rec.send_columns(layout.BODY, index, rr.Transform3D.columns(quaternion=_xyzw(views.unit_q[rows])))
+        rec.send_columns(layout.BODY, index, rr.Transform3D.columns(quaternion=visuals.xyzw(views.unit_q[rows])))
         rec.send_columns(layout.AXIS_TIP, index, rr.Points3D.columns(positions=views.geometry.axis_tips[rows]))
         for entity, values in vectors.items():
             rec.send_columns(entity, index, rr.Arrows3D.columns(vectors=values[rows]))
-        for entity, (values, _) in views.series.items():
+        for entity, values in thin.items():
             rec.send_columns(entity, index, rr.Scalars.columns(scalars=values[rows]))
+        visuals.send_chunk(rec, traj, views, rows, ns)
 
 
-def _arrow_scale(vectors: np.ndarray, size: float) -> float:
-    """Factor that makes the longest finite arrow 1.5 body sizes long."""
+def _nanoseconds(t: np.ndarray) -> np.ndarray:
+    """Timeline values: round to the nanosecond (Rerun's float conversion truncates)."""
+    return np.round(t * 1e9).astype(np.int64).astype("timedelta64[ns]")
+
+
+def _slices(n: int, size: int) -> list[slice]:
+    return [slice(start, min(start + size, n)) for start in range(0, n, size)]
+
+
+def _arrow_scale(vectors: np.ndarray, length: float) -> float:
+    """Factor that makes the longest finite arrow ``length`` long."""
     with np.errstate(over="ignore"):
         lengths = np.linalg.norm(vectors, axis=1)
     finite = lengths[np.isfinite(lengths)]
     longest = float(finite.max()) if finite.size else 0.0
-    return 1.5 * size / longest if longest > 0.0 else 1.0
+    return length / longest if longest > 0.0 else 1.0
 
-
-def _xyzw(q: np.ndarray) -> np.ndarray:
-    """Rerun's quaternion order (x, y, z, w) from scalar-first (w, x, y, z)."""
-    return np.roll(q, -1, axis=-1)

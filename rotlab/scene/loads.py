@@ -1,4 +1,5 @@
-"""Loads compiled to flat arrays for the kernels (principal body frame).
+"""Loads compiled to arrays for the kernels (principal body frame), and the scene's ``Model``:
+the one value every kernel receives (``rotlab.core.torques`` reads its load fields).
 
 Torque on the body, body components (R = R(Λ) body → space):
 
@@ -8,28 +9,72 @@ Torque on the body, body components (R = R(Λ) body → space):
   or, for space-frame terms, M = Rᵀ M(t)                                    (work W)
 * tables: piecewise-linear M(t) through (t_k, M_k), zero outside [t_0, t_n) ∩ [on, off)  (work W)
 * damping: M = −k ω                                                         (work W)
+* expressions: components are programs (``rotlab.config.expressions``) of t, ω, Λ, γ, L in the
+  user's body frame; a torque, or a force at a body point; body or space frame   (work W).
+  ``pd_control``, ``gravity_gradient``, ``quadratic_drag`` and windowed space-frame forces
+  compile to expressions.
 
 Work of the non-conservative loads: Ẇ = M_nc · ω, so that T + V − W is invariant.
+
+Adding a load kind: its pydantic model (``rotlab.config.models``), its compilation here (to
+an existing group, an expression formula, or a new group), and — for a new group only — its
+torque in ``rotlab.core.torques`` (and its Taylor series there, if ``taylor`` supports it).
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
+from rotlab.config import expressions as formulas
+from rotlab.scene import formulas as generated
 from rotlab.config import models as cfg
+from rotlab.core import opcodes
+from rotlab.core.dynamics import euler_coefficients
+from rotlab.core.expressions import aux_rows
+from rotlab.core.torques import EX_COLUMNS, EX_FORCE, EX_FRAME, EX_OFF, EX_ON, EX_POINT, EX_PROGRAMS, EX_RATE, EX_UP, EX_UP2
 
 BODY, SPACE = 0.0, 1.0
 
-# torque term columns
-T_FRAME, T_ON, T_OFF, T_OFFSET, T_AMP, T_W, T_PHASE = 0, 1, 2, slice(3, 6), slice(6, 9), 9, 10
-# table columns
-TB_FRAME, TB_ON, TB_OFF, TB_FIRST, TB_STOP = 0, 1, 2, 3, 4
+
+class Expressions(NamedTuple):
+    """Expression loads: one row each (columns ``rotlab.core.torques.EX_*``), their programs
+    (``code`` rows (opcode, argument), CONST arguments index ``consts``) and the user's frame."""
+
+    rows: np.ndarray  # (n, EX_COLUMNS)
+    code: np.ndarray  # (m, 3) int64: opcode, argument, first auxiliary Taylor row
+    consts: np.ndarray  # (c,)
+    axes: np.ndarray  # (3, 3) principal axes in the user's body frame (r_U = axes r_P)
+    axes_q: np.ndarray  # (4,) Λ of axes
+    moments: np.ndarray  # (3,) principal moments
+    depth: int  # the deepest program's stack
+    aux: int  # auxiliary rows of the Taylor-mode tape (``rotlab.core.expressions.aux_rows``)
+    fn: int  # address of the compiled programs (``rotlab.scene.formulas``): fn(load, component, inputs…)
+
+
+def _user_signature():
+    from numba import types
+
+    f = types.float64
+    return f(f, f, f, f, f, f, f, f, types.int64)
+
+
+USER_SIGNATURE = _user_signature()  # (t, λ0..λ3, ω0..ω2, component) → M_component
+
+
+class UserTorque(NamedTuple):
+    """A Python function compiled by numba, fn(t, q, omega) → (Mx, My, Mz): q = Λ (4,) and omega
+    (3,) in the user's body frame, M in ``frame`` (BODY: the user's body axes, SPACE)."""
+
+    fn: Any  # numba cfunc of USER_SIGNATURE
+    frame: float
+    axes: np.ndarray  # (3, 3) principal axes in the user's body frame
+    axes_q: np.ndarray  # (4,) Λ of axes
 
 
 class LoadArrays(NamedTuple):
-    """Everything the right-hand side needs about loads; passed to numba kernels as a tuple."""
+    """Every load of a scene as arrays, empty groups included (see ``Model`` for the kernels)."""
 
     forces: np.ndarray  # (n, 6): [p (body, m), F (space, N)]
     terms: np.ndarray  # (n, 11): [frame, on, off, offset(3), amplitude(3), w, phase]
@@ -37,16 +82,96 @@ class LoadArrays(NamedTuple):
     table_t: np.ndarray  # (m,)
     table_v: np.ndarray  # (m, 3)
     damping: float  # k, N·m·s
-
-    def for_kernel(self) -> LoadArrays:
-        """The same loads with absent groups as None, so kernels compile without them."""
-        forces = self.forces if len(self.forces) else None
-        if has_nonconservative(self):
-            return self._replace(forces=forces)
-        return LoadArrays(forces, None, None, None, None, None)
+    expressions: Expressions | None
+    user: UserTorque | None = None
 
 
-def compile_loads(scenario: cfg.Scenario, axes: np.ndarray) -> LoadArrays:
+class Model(NamedTuple):
+    """What a kernel needs of a scene, as one value: Euler coefficients, load breakpoints and
+    the load groups, each None when the scene has none (it then compiles to nothing)."""
+
+    euler: np.ndarray  # (6,) ``rotlab.core.dynamics.euler_coefficients``
+    breaks: np.ndarray  # sorted load breakpoints (may be empty)
+    forces: np.ndarray | None
+    terms: np.ndarray | None
+    tables: np.ndarray | None
+    table_t: np.ndarray | None
+    table_v: np.ndarray | None
+    damping: float | None
+    expressions: Expressions | None
+    user: UserTorque | None
+
+
+def build_model(loads: LoadArrays, moments: np.ndarray) -> Model:
+    """The kernels' view of ``loads``: absent groups as None."""
+    has_tables = len(loads.tables) > 0
+    return Model(
+        euler=euler_coefficients(moments),
+        breaks=breakpoints(loads),
+        forces=loads.forces if len(loads.forces) else None,
+        terms=loads.terms if len(loads.terms) else None,
+        tables=loads.tables if has_tables else None,
+        table_t=loads.table_t if has_tables else None,
+        table_v=loads.table_v if has_tables else None,
+        damping=loads.damping if loads.damping > 0.0 else None,
+        expressions=loads.expressions,
+        user=loads.user,
+    )
+
+
+class ProgramBuilder:
+    """Expression loads being compiled: rows, concatenated code and constants."""
+
+    def __init__(self) -> None:
+        self.rows: list[np.ndarray] = []
+        self.code: list[tuple[int, int, int]] = []
+        self.aux = 0
+        self.consts: list[float] = []
+        self.depth = 1
+        self.programs: list[list[formulas.Program]] = []
+
+    def add(self, programs: list[tuple[formulas.Program, int]], frame: float, window: tuple[float, float],
+            point: np.ndarray | None = None, up: np.ndarray = np.array([0.0, 0.0, 1.0]),
+            up2: np.ndarray = np.zeros(3), rate: float = 0.0) -> None:
+        row = np.zeros(EX_COLUMNS)
+        row[EX_FRAME], row[EX_ON], row[EX_OFF] = frame, window[0], window[1]
+        if point is not None:
+            row[EX_FORCE] = 1.0
+            row[EX_POINT:EX_POINT + 3] = point
+        row[EX_UP:EX_UP + 3], row[EX_UP2:EX_UP2 + 3], row[EX_RATE] = up, up2, rate
+        for k, (program, depth) in enumerate(programs):
+            row[EX_PROGRAMS + 2 * k] = len(self.code)
+            for opcode, arg in program:
+                if opcode == opcodes.CONST:
+                    self.code.append((opcode, len(self.consts), 0))
+                    self.consts.append(arg)
+                else:
+                    self.code.append((opcode, int(arg), self.aux))
+                    self.aux += aux_rows(opcode, int(arg))
+            row[EX_PROGRAMS + 2 * k + 1] = len(self.code)
+            self.depth = max(self.depth, depth)
+        self.rows.append(row)
+        self.programs.append([program for program, _ in programs])
+
+    def formulas(self, texts: list[str], constants: dict[str, float], frame: float, window: tuple[float, float], **kw) -> None:
+        self.add([formulas.parse_formula(text, constants) for text in texts], frame, window, **kw)
+
+    def build(self, axes: np.ndarray, moments: np.ndarray) -> Expressions | None:
+        if not self.rows:
+            return None
+        return Expressions(np.array(self.rows), np.array(self.code, dtype=np.int64).reshape(-1, 3),
+                           np.array(self.consts, dtype=float), np.ascontiguousarray(axes, dtype=float),
+                           _quaternion_of(axes), np.asarray(moments, dtype=float), self.depth, self.aux,
+                           generated.compiled(self.programs).address)
+
+
+def _quaternion_of(axes: np.ndarray) -> np.ndarray:
+    from rotlab.core.quaternion import from_matrix
+
+    return np.asarray(from_matrix(axes), dtype=float)
+
+
+def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray, user: UserTorque | None = None) -> LoadArrays:
     """Turn the scenario's loads into arrays; body-frame vectors are rotated by Pᵀ = ``axes.T``
     into the principal frame (space-frame vectors are unchanged)."""
     to_principal = axes.T
@@ -55,6 +180,7 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray) -> LoadArrays:
     tables: list[list[float]] = []
     table_t: list[float] = []
     table_v: list[np.ndarray] = []
+    programs = ProgramBuilder()
     damping = 0.0
 
     def body_vector(v: tuple[float, float, float]) -> np.ndarray:
@@ -70,11 +196,13 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray) -> LoadArrays:
         if isinstance(load, cfg.Gravity):
             mass = scenario.body.mass or 0.0
             forces.append(np.concatenate([body_vector(scenario.body.center_of_mass), mass * np.asarray(load.g)]))
-        elif isinstance(load, cfg.Force) and load.frame == "space":
+        elif isinstance(load, cfg.Force) and load.frame == "space" and load.window is None:
             forces.append(np.concatenate([body_vector(load.point), np.asarray(load.value, dtype=float)]))
+        elif isinstance(load, cfg.Force) and load.frame == "space":  # switched on and off: does work
+            programs.formulas([repr(float(v)) for v in load.value], {}, SPACE, window(load.window), point=body_vector(load.point))
         elif isinstance(load, cfg.Force):  # body-frame force: a constant follower torque p × F
             moment = np.cross(body_vector(load.point), body_vector(load.value))
-            terms.append(_term(BODY, (-np.inf, np.inf), moment, np.zeros(3), 0.0, 0.0))
+            terms.append(_term(BODY, window(load.window), moment, np.zeros(3), 0.0, 0.0))
         elif isinstance(load, cfg.Torque):
             frame = BODY if load.frame == "body" else SPACE
             terms.append(_term(frame, window(load.window), frame_vector(load.frame, load.value), np.zeros(3), 0.0, 0.0))
@@ -93,6 +221,21 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray) -> LoadArrays:
             tables.append([frame, *window(load.window), first, len(table_t)])
         elif isinstance(load, cfg.Damping):
             damping += load.coefficient
+        elif isinstance(load, cfg.Expression):
+            frame = BODY if load.frame == "body" else SPACE
+            point = None if load.point is None else body_vector(load.point)
+            up = np.asarray(load.up, dtype=float)
+            programs.add(load.programs(), frame, window(load.window), point=point, up=up / np.linalg.norm(up))
+        elif isinstance(load, cfg.PDControl):
+            programs.formulas(*_pd_control(load), BODY, window(load.window))
+        elif isinstance(load, cfg.QuadraticDrag):  # −c |ω| ω
+            texts = [f"-c*sqrt(omega[0]**2 + omega[1]**2 + omega[2]**2)*omega[{i}]" for i in range(3)]
+            programs.formulas(texts, {"c": load.coefficient}, BODY, window(load.window))
+        elif isinstance(load, cfg.GravityGradient):
+            vertical = np.asarray(load.vertical, dtype=float) / np.linalg.norm(load.vertical)
+            normal = np.asarray(load.orbit_normal, dtype=float) / np.linalg.norm(load.orbit_normal)
+            programs.formulas(*_gravity_gradient(load, _user_inertia(scenario.body)), BODY, (-np.inf, np.inf),
+                              up=vertical, up2=np.cross(normal, vertical), rate=load.orbit_rate)
     return LoadArrays(
         forces=np.array(forces, dtype=float).reshape(-1, 6),
         terms=np.array(terms, dtype=float).reshape(-1, 11),
@@ -100,7 +243,83 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray) -> LoadArrays:
         table_t=np.array(table_t, dtype=float),
         table_v=np.array(table_v, dtype=float).reshape(-1, 3),
         damping=float(damping),
+        expressions=programs.build(axes, moments),
+        user=user,
     )
+
+
+def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
+    """``fn(t, q, omega) -> M`` compiled by numba (a plain Python function is jitted) and checked
+    on a sample state; ``InputError`` naming why when numba cannot compile it or M is not 3 numbers.
+
+    The kernels receive it as a C callback (``numba.cfunc``) of one fixed signature
+    (t, Λ, ω, component) → M_component: its type is the same for every function, so the kernels
+    stay compiled and cached on disk (a jitted function as a kernel argument would recompile
+    them for each function and write its type into their cache index)."""
+    import numba
+
+    from rotlab.errors import InputError
+
+    if frame not in ("body", "space"):
+        raise InputError("frame", f"must be \"body\" or \"space\", not {frame!r}")
+    if not callable(fn):
+        raise InputError("torque", f"must be a function fn(t, q, omega) -> (Mx, My, Mz), not {type(fn).__name__}")
+    name = getattr(fn, "__name__", "torque")
+    jitted = fn if isinstance(fn, numba.core.registry.CPUDispatcher) else numba.njit(fn)
+    try:
+        value = jitted(0.0, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3))
+    except numba.core.errors.NumbaError as exc:
+        raise InputError("torque", f"numba cannot compile {name}(t, q, omega): {_numba_reason(exc)}") from None
+    if np.shape(value) != (3,):
+        raise InputError("torque", f"{name}(t, q, omega) must return 3 numbers (Mx, My, Mz), got {np.shape(value) or type(value).__name__}")
+
+    @numba.cfunc(USER_SIGNATURE)
+    def callback(t, q0, q1, q2, q3, w0, w1, w2, k):  # pragma: no cover - runs compiled
+        return jitted(t, np.array([q0, q1, q2, q3]), np.array([w0, w1, w2]))[k]
+
+    return UserTorque(callback, BODY if frame == "body" else SPACE, np.ascontiguousarray(axes, dtype=float), _quaternion_of(axes))
+
+
+def _numba_reason(exc: Exception) -> str:
+    """The line of a numba error that says why (ANSI colours removed)."""
+    import re
+
+    lines = [re.sub(r"\x1b\[[0-9;]*m", "", line).strip() for line in str(exc).splitlines()]
+    lines = [line for line in lines if line]
+    keys = ("Untyped global name", "No implementation", "Unknown attribute", "Use of unsupported", "Cannot", "Invalid use", "non-precise type")
+    why = next((line for line in lines if any(k in line for k in keys)), lines[0] if lines else "")
+    return why[:300]
+
+
+def _user_inertia(body: cfg.Body) -> np.ndarray:
+    """The inertia tensor in the user's body frame."""
+    if body.principal_moments is not None:
+        return np.diag(np.asarray(body.principal_moments, dtype=float))
+    return np.asarray(body.inertia_tensor, dtype=float)
+
+
+def _pd_control(load: cfg.PDControl) -> tuple[list[str], dict[str, float]]:
+    """M_i = sat(−kp sgn(δ₀) δ_i − kd ω_i), δ = Λ̃_target ∘ Λ:
+    δ₀ = τ₀λ₀ + τ·λ,  δ_v = τ₀ λ_v − λ₀ τ_v − τ_v × λ_v  (τ the target)."""
+    constants = {"a0": load.target[0], "a1": load.target[1], "a2": load.target[2], "a3": load.target[3],
+                 "kp": load.kp, "kd": load.kd}
+    d0 = "(a0*q[0] + a1*q[1] + a2*q[2] + a3*q[3])"
+    delta = ["(a0*q[1] - q[0]*a1 - (a2*q[3] - a3*q[2]))",
+             "(a0*q[2] - q[0]*a2 - (a3*q[1] - a1*q[3]))",
+             "(a0*q[3] - q[0]*a3 - (a1*q[2] - a2*q[1]))"]
+    texts = [f"-kp*sign({d0})*{d} - kd*omega[{i}]" for i, d in enumerate(delta)]
+    if load.max_torque is not None:
+        constants["limit"] = load.max_torque
+        texts = [f"max(-limit, min(limit, {text}))" for text in texts]
+    return texts, constants
+
+
+def _gravity_gradient(load: cfg.GravityGradient, inertia: np.ndarray) -> tuple[list[str], dict[str, float]]:
+    """M = 3 n² γ × (I γ), γ = gamma (the local vertical, user's body frame)."""
+    constants = {"k": 3.0 * load.orbit_rate**2, **{f"I{i}{j}": float(inertia[i, j]) for i in range(3) for j in range(3)}}
+    ig = [f"(I{i}0*gamma[0] + I{i}1*gamma[1] + I{i}2*gamma[2])" for i in range(3)]
+    texts = [f"k*(gamma[{(i + 1) % 3}]*{ig[(i + 2) % 3]} - gamma[{(i + 2) % 3}]*{ig[(i + 1) % 3]})" for i in range(3)]
+    return texts, constants
 
 
 def _term(frame: float, window: tuple[float, float], offset: np.ndarray, amplitude: np.ndarray, w: float, phase: float) -> np.ndarray:
@@ -110,19 +329,27 @@ def _term(frame: float, window: tuple[float, float], offset: np.ndarray, amplitu
 def breakpoints(loads: LoadArrays) -> np.ndarray:
     """Sorted times where a load switches or kinks (window edges, table knots): an adaptive
     method ends its steps there instead of stepping over a short pulse."""
-    times = [loads.terms[:, 1:3].ravel(), loads.tables[:, 1:3].ravel(), loads.table_t]
+    times = [loads.terms[:, 1:3].ravel(), loads.tables[:, 1:3].ravel(), loads.table_t, _expression_windows(loads).ravel()]
     all_times = np.concatenate(times) if any(len(x) for x in times) else np.zeros(0)
     return np.unique(all_times[np.isfinite(all_times)])
 
 
 def shortest_window(loads: LoadArrays) -> float:
     """The shortest time a windowed load or a table segment acts (inf when none)."""
-    spans = [loads.terms[:, 2] - loads.terms[:, 1], loads.tables[:, 2] - loads.tables[:, 1]]
+    windows = _expression_windows(loads)
+    spans = [loads.terms[:, 2] - loads.terms[:, 1], loads.tables[:, 2] - loads.tables[:, 1], windows[:, 1] - windows[:, 0]]
     if len(loads.table_t) > 1:
         knots = np.diff(loads.table_t)
         spans.append(knots[knots > 0])  # segments within tables (consecutive tables concatenate)
     values = np.concatenate(spans) if spans else np.zeros(0)
     return float(np.min(values)) if values.size else float("inf")
+
+
+def _expression_windows(loads: LoadArrays) -> np.ndarray:
+    """(n, 2) [on, off] of the expression loads."""
+    if loads.expressions is None:
+        return np.zeros((0, 2))
+    return loads.expressions.rows[:, [EX_ON, EX_OFF]]
 
 
 def active_forces(loads: LoadArrays) -> np.ndarray:
@@ -135,7 +362,7 @@ def has_nonconservative(loads: LoadArrays) -> bool:
     """True when some load does work that no potential accounts for."""
     terms_active = bool(np.any(loads.terms[:, 3:9] != 0.0))
     tables_active = bool(np.any(loads.table_v != 0.0))
-    return terms_active or tables_active or loads.damping > 0.0
+    return terms_active or tables_active or loads.damping > 0.0 or loads.expressions is not None or loads.user is not None
 
 
 def torque_scale(loads: LoadArrays) -> float:

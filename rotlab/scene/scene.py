@@ -14,16 +14,21 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from rotlab import invariants as invariant_table
 from rotlab.config import models as cfg
 from rotlab.core import quaternion as quat
+from rotlab.core.torques import EX_RATE
 from rotlab.scene import inertia
 from rotlab.scene.loads import (
     LoadArrays,
+    Model,
     active_forces,
+    build_model,
     compile_loads,
     has_nonconservative,
     shortest_window,
     torque_scale,
+    user_torque,
 )
 
 T = TypeVar("T")
@@ -48,7 +53,6 @@ class Scene:
     has_work: bool  # some non-conservative load
     field_direction: np.ndarray | None  # unit "up" (−F̂) when all forces are parallel: L·up is invariant
     symmetry_axis: np.ndarray | None  # Lagrange top: unit symmetry axis (principal frame), L·e is invariant
-    invariants: tuple[str, ...]
     _memo: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def cached(self, key: str, build: Callable[[], T]) -> T:
@@ -69,7 +73,20 @@ class Scene:
         if self.loads.terms.size:
             rates.append(float(np.max(np.abs(self.loads.terms[:, 9]))))
         rates.append(self.loads.damping / float(np.min(self.moments)))
+        if self.loads.expressions is not None:
+            rates.append(float(np.max(np.abs(self.loads.expressions.rows[:, EX_RATE]))))
         return max(rates)
+
+    @cached_property
+    def model(self) -> Model:
+        """The one value the kernels receive: Euler coefficients, breakpoints and the loads,
+        absent groups as None (``rotlab.scene.loads.Model``)."""
+        return build_model(self.loads, self.moments)
+
+    @cached_property
+    def invariants(self) -> tuple[str, ...]:
+        """The names of the quantities this scene conserves (``rotlab.invariants``)."""
+        return invariant_table.names_for(self)
 
     @cached_property
     def shortest_window(self) -> float:
@@ -93,7 +110,9 @@ def initial_quaternion(initial: cfg.Initial) -> np.ndarray:
     return np.array([1.0, 0.0, 0.0, 0.0])
 
 
-def build_scene(scenario: cfg.Scenario) -> Scene:
+def build_scene(scenario: cfg.Scenario, torque: Callable | None = None, frame: str = "body") -> Scene:
+    """The scene of ``scenario``; ``torque`` adds a Python function fn(t, q, omega) -> M (user's
+    body frame in, M in ``frame``) compiled by numba (``rotlab.scene.loads.user_torque``)."""
     body = scenario.body
     if body.principal_moments is not None:
         moments, axes = np.asarray(body.principal_moments, dtype=float), np.eye(3)
@@ -102,20 +121,14 @@ def build_scene(scenario: cfg.Scenario) -> Scene:
     axes_q = quat.from_matrix(axes)
     q0 = quat.multiply_array(initial_quaternion(scenario.initial), axes_q)
     omega0 = axes.T @ np.asarray(scenario.initial.omega, dtype=float)
-    loads = compile_loads(scenario, axes)
+    user = None if torque is None else user_torque(torque, frame, axes)
+    loads = compile_loads(scenario, axes, moments, user)
 
     forces = active_forces(loads)
     has_work = has_nonconservative(loads)
     field = _common_direction(forces[:, 3:]) if len(forces) and not has_work else None
     kind, reason, symmetry_axis = _classify(moments, forces, has_work)
 
-    names = ["energy", "quaternion_norm"]
-    if kind == TORQUE_FREE:
-        names += ["L_norm", "L_space"]
-    if field is not None:
-        names.append("L_vertical")
-    if symmetry_axis is not None:
-        names.append("L_symmetry")
     return Scene(
         scenario=scenario,
         moments=moments,
@@ -130,7 +143,6 @@ def build_scene(scenario: cfg.Scenario) -> Scene:
         has_work=has_work,
         field_direction=None if field is None else -field,
         symmetry_axis=symmetry_axis,
-        invariants=tuple(names),
     )
 
 

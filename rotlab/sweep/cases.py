@@ -9,17 +9,17 @@ from its number and the seed.
 from __future__ import annotations
 
 import copy
+import difflib
 import itertools
-import re
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel
 
 from rotlab.config import models as cfg
+from rotlab.config.paths import model_defaults, parse_key_path, set_at
 from rotlab.errors import InputError
-
-_PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)")
 
 
 @dataclass(frozen=True)
@@ -28,16 +28,24 @@ class Case:
     values: dict[str, Any]  # dotted path → value applied to the base scenario
 
 
-def parse_path(path: str) -> list[str | int]:
-    """'loads[0].value[2]' → ['loads', 0, 'value', 2]."""
-    parts: list[str | int] = []
-    for piece in path.split("."):
-        match = _PART.fullmatch(piece)
-        if not match:
-            raise InputError(f"sweep.parameters.{path}", "not a key path: write e.g. initial.omega[2] or body.mass")
-        parts.append(match.group(1))
-        parts.extend(int(k) for k in re.findall(r"\[(\d+)\]", match.group(2)))
-    return parts
+def check_path(base: cfg.Scenario, path: str) -> None:
+    """A sweep parameter's key path must name a scenario key: an unknown key is an input error
+    with the closest known key (as for the scenario's own keys)."""
+    obj: Any = base
+    for part in parse_key_path(path, f"sweep.parameters.{path}"):
+        if obj is None:  # an optional section the base leaves out: the case's validation checks the rest
+            return
+        if isinstance(part, int):
+            if not isinstance(obj, (list, tuple)) or part >= len(obj):
+                raise InputError(f"sweep.parameters.{path}", f"index [{part}] is out of range")
+            obj = obj[part]
+            continue
+        fields = list(type(obj).model_fields) if isinstance(obj, BaseModel) else []
+        if part not in fields:
+            close = difflib.get_close_matches(part, fields, n=1)
+            hint = f"did you mean '{close[0]}'?" if close else f"allowed keys: {', '.join(fields)}" if fields else "it has no keys"
+            raise InputError(f"sweep.parameters.{path}", f"unknown key '{part}': {hint}")
+        obj = getattr(obj, part)
 
 
 def expand(sweep: cfg.Sweep) -> list[Case]:
@@ -73,34 +81,5 @@ def apply(raw: dict[str, Any], base: cfg.Scenario, values: dict[str, Any]) -> di
     data = copy.deepcopy(raw)
     data.pop("sweep", None)
     for path, value in values.items():
-        _set(data, base, parse_path(path), value, path)
+        set_at(data, path, value, f"sweep.parameters.{path}", model_defaults(base))
     return data
-
-
-def _set(data: dict[str, Any], base: cfg.Scenario, parts: list[str | int], value: Any, path: str) -> None:
-    node: Any = data
-    for depth, part in enumerate(parts[:-1]):
-        nxt = parts[depth + 1]
-        if isinstance(part, int):
-            if not isinstance(node, list) or part >= len(node):
-                raise InputError(f"sweep.parameters.{path}", f"index [{part}] is out of range")
-            node = node[part]
-            continue
-        if part not in node or node[part] is None:
-            node[part] = _default(base, parts[: depth + 1]) if isinstance(nxt, int) else {}
-        node = node[part]
-    last = parts[-1]
-    if isinstance(last, int):
-        if not isinstance(node, list) or last >= len(node):
-            raise InputError(f"sweep.parameters.{path}", f"index [{last}] is out of range")
-    node[last] = value
-
-
-def _default(base: cfg.Scenario, parts: list[str | int]) -> list[Any]:
-    """The validated base value at ``parts`` as a list (for indexing into a default vector)."""
-    obj: Any = base
-    for part in parts:
-        obj = obj[part] if isinstance(part, int) else getattr(obj, part, None)
-    if obj is None:
-        raise InputError(".".join(map(str, parts)), "has no value in the base scenario to index into: give it in full")
-    return [list(v) if isinstance(v, tuple) else v for v in obj]

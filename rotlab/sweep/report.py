@@ -1,19 +1,17 @@
-"""Sweep outputs: a results table (CSV and Parquet), a terminal table, and one recording that
-compares the cases (ω body components and energy drift of each case on one timeline)."""
+"""Sweep outputs: a results table (CSV and Parquet) and a terminal table.  One row per case:
+its parameters, status, method, steps, wall time (``seconds``: this case's own; empty when the
+cases ran together in the ensemble kernel), the observables of ``rotlab.sweep.observables`` and
+the max drift of each invariant.  The recording that compares the cases is written by
+``rotlab.recording.sweep``."""
 
 from __future__ import annotations
 
 import csv
+import math
 import os
-import uuid
 from pathlib import Path
 
-import numpy as np
-
-from rotlab.recording.layout import TIMELINE
 from rotlab.sweep.runner import CaseOutcome
-
-MAX_COMPARED = 50
 
 
 def rows(outcomes: list[CaseOutcome]) -> tuple[list[str], list[list[object]]]:
@@ -24,9 +22,12 @@ def rows(outcomes: list[CaseOutcome]) -> tuple[list[str], list[list[object]]]:
             names = [f"{key}[{i}]" for i in range(len(value))] if isinstance(value, list) else [key]
             params += [n for n in names if n not in params]
     invariants: list[str] = []
+    observables: list[str] = []
     for o in outcomes:
         invariants += [n for n in o.drift if n not in invariants]
-    header = ["case", *params, "status", "method", "steps", "seconds", *[f"max_drift_{n}" for n in invariants], "message"]
+        observables += [n for n in o.observables if n not in observables]
+    header = ["case", *params, "status", "method", "steps", "seconds", *observables,
+              *[f"max_drift_{n}" for n in invariants], "message"]
     table = []
     for o in outcomes:
         flat: dict[str, object] = {}
@@ -35,9 +36,15 @@ def rows(outcomes: list[CaseOutcome]) -> tuple[list[str], list[list[object]]]:
                 flat.update({f"{key}[{i}]": v for i, v in enumerate(value)})
             else:
                 flat[key] = value
-        table.append([o.index, *[flat.get(p, "") for p in params], o.status, o.method, o.steps, round(o.seconds, 6),
+        table.append([o.index, *[flat.get(p, "") for p in params], o.status, o.method, o.steps, _number(o.seconds, 6),
+                      *[_number(o.observables.get(n, math.nan), 9) for n in observables],
                       *[o.drift.get(n, "") for n in invariants], o.message])
     return header, table
+
+
+def _number(value: float, digits: int) -> float | str:
+    """A table cell: the value rounded to ``digits`` decimals, or empty when undefined (NaN)."""
+    return "" if not math.isfinite(value) else round(float(value), digits)
 
 
 def write_results(outcomes: list[CaseOutcome], outdir: Path) -> list[Path]:
@@ -74,43 +81,3 @@ def terminal_table(outcomes: list[CaseOutcome], how: str) -> str:
 
 def _fmt(value: object) -> str:
     return f"{value:.4g}" if isinstance(value, float) else str(value)
-
-
-def write_comparison(outcomes: list[CaseOutcome], path: Path, title: str) -> Path:
-    """One recording: /cases/<k>/omega and /cases/<k>/energy_drift for up to 50 cases."""
-    import rerun as rr
-    import rerun.blueprint as rrb
-
-    from rotlab.recording.writer import check_output_path
-
-    check_output_path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    shown = [o for o in outcomes if o.t is not None][:MAX_COMPARED]
-    blueprint = rrb.Blueprint(
-        rrb.Vertical(
-            rrb.TimeSeriesView(origin="/cases", contents="/cases/*/omega", name="ω body frame per case (rad/s)"),
-            rrb.TimeSeriesView(origin="/cases", contents="/cases/*/energy_drift", name="energy drift per case (relative)"),
-            rrb.TextDocumentView(origin="/sweep", name="Sweep"),
-            row_shares=[3, 2, 1],
-        )
-    )
-    try:
-        rec = rr.RecordingStream("rotlab-sweep", recording_id=uuid.uuid4())
-        rec.save(tmp, default_blueprint=blueprint)
-        header, table = rows(outcomes)
-        md = [f"# {title or 'sweep'}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        md += ["| " + " | ".join(_fmt(v) for v in r) + " |" for r in table]
-        rec.log("/sweep", rr.TextDocument("\n".join(md), media_type="text/markdown"), static=True)
-        for o in shown:
-            index = [rr.TimeColumn(TIMELINE, duration=np.round(o.t * 1e9).astype(np.int64).astype("timedelta64[ns]"))]
-            rec.log(f"/cases/{o.index}/omega", rr.SeriesLines(names=[f"case {o.index} p", f"case {o.index} q", f"case {o.index} r"]), static=True)
-            rec.log(f"/cases/{o.index}/energy_drift", rr.SeriesLines(names=[f"case {o.index}"]), static=True)
-            rec.send_columns(f"/cases/{o.index}/omega", index, rr.Scalars.columns(scalars=o.omega))
-            rec.send_columns(f"/cases/{o.index}/energy_drift", index, rr.Scalars.columns(scalars=o.energy_drift[:, None]))
-        rec.flush()
-        rec.disconnect()
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path

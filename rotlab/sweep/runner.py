@@ -5,6 +5,7 @@ A failing case is reported with its error; the others complete."""
 from __future__ import annotations
 
 import math
+import signal
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,11 +16,10 @@ import numpy as np
 from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError
-from rotlab.parallel import process_pool
-from rotlab.sweep.cases import Case, apply, expand
+from rotlab.parallel import TaskRun, run_tasks
+from rotlab.sweep.cases import Case, apply, check_path, expand
 
 COMPARISON_SAMPLES = 2000  # per case, in the comparison recording
-DASK_CONNECT_TIMEOUT = "15s"
 
 
 @dataclass
@@ -29,10 +29,11 @@ class CaseOutcome:
     status: str  # "pass" | "fail" | "error"
     method: str = ""
     steps: int = 0
-    seconds: float = 0.0
+    seconds: float = 0.0  # this case's wall time; NaN when cases ran together (ensemble kernel)
     drift: dict[str, float] = field(default_factory=dict)
     checks: list[dict] = field(default_factory=list)
     message: str = ""
+    observables: dict[str, float] = field(default_factory=dict)  # see rotlab.sweep.observables
     t: np.ndarray | None = None  # decimated series for the comparison recording
     omega: np.ndarray | None = None
     energy_drift: np.ndarray | None = None
@@ -51,7 +52,9 @@ def plan(config: Path) -> SweepPlan:
     raw = read_toml(config)
     base = parse_scenario(raw, source=str(config))
     if base.sweep is None:
-        raise InputError(f"{config}", "no [sweep] section: add one (see README, 'Sweeps') or use `rotlab run`")
+        raise InputError(f"{config}", "no [sweep] section: add one (README, 'Scenario files', the [sweep] row) or use `rotlab run`")
+    for path in base.sweep.parameters:
+        check_path(base, path)
     cases = expand(base.sweep)
     scenarios: list[cfg.Scenario | InputError] = []
     for case in cases:
@@ -66,6 +69,7 @@ def plan(config: Path) -> SweepPlan:
 
 def outcome_of(case: Case, traj, seconds: float) -> CaseOutcome:
     from rotlab.checks import evaluate_checks
+    from rotlab.sweep.observables import case_observables
 
     checks = evaluate_checks(traj)
     failed = [c for c in checks if not c.passed]
@@ -80,6 +84,7 @@ def outcome_of(case: Case, traj, seconds: float) -> CaseOutcome:
         drift=traj.max_drift(),
         checks=[{"name": c.name, "passed": c.passed, "value": c.value, "limit": c.limit} for c in checks],
         message="; ".join(c.message for c in failed),
+        observables=case_observables(traj),
         t=traj.t[::stride],
         omega=traj.omega[::stride],
         energy_drift=traj.invariants["energy"][::stride],
@@ -94,7 +99,7 @@ def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError) -> CaseOutco
         return CaseOutcome(case.index, case.values, "error", message=str(scenario))
     started = time.perf_counter()
     try:
-        traj = api.simulate(scenario)
+        traj = api.simulate(scenario, check=False)  # a failed case is reported by outcome_of
     except Exception as exc:
         return CaseOutcome(case.index, case.values, "error", seconds=time.perf_counter() - started, message=f"{type(exc).__name__}: {exc}")
     return outcome_of(case, traj, time.perf_counter() - started)
@@ -111,16 +116,13 @@ def ensemble_eligible(p: SweepPlan) -> bool:
 
 def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
     """All cases in one call of the parallel ensemble kernel."""
-    from rotlab.core.dynamics import euler_coefficients
     from rotlab.core.ensemble import rk4_ensemble
     from rotlab.methods.base import Settings, Solution
     from rotlab.methods.registry import get_method
     from rotlab.methods.stepping import initial_state
-    from rotlab.scene.loads import breakpoints
     from rotlab.scene.scene import build_scene
     from rotlab.trajectory import RunStats, build_trajectory
 
-    started = time.perf_counter()
     scenes = [build_scene(s) for s in p.scenarios]
     first = scenes[0]
     t = first.scenario.time.sample_times()
@@ -133,9 +135,8 @@ def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
     out = np.empty((len(scenes), t.shape[0], 8))
     status = np.zeros(len(scenes), dtype=np.int64)
     valid = np.zeros(len(scenes), dtype=np.int64)
-    rk4_ensemble(y0, t, out, substeps, s.max_steps, euler_coefficients(first.moments), first.loads.for_kernel(),
-                 breakpoints(first.loads), status, valid)
-    seconds = (time.perf_counter() - started) / len(scenes)
+    rk4_ensemble(y0, t, out, substeps, s.max_steps, first.model, status, valid)
+    seconds = float("nan")  # one kernel call for all bodies: no per-case wall time to report
     steps = (t.shape[0] - 1) * substeps
     outcomes = []
     for case, scene, k in zip(p.cases, scenes, range(len(scenes))):
@@ -147,27 +148,51 @@ def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
     return outcomes
 
 
+@dataclass
+class SweepRun:
+    outcomes: list[CaseOutcome]  # case order; a case that did not finish is an "error" saying why
+    how: str  # how the cases were run
+    stopped: int | None = None  # SIGINT / SIGTERM that stopped the sweep
+
+
 def run_sweep(p: SweepPlan, jobs: int = 2, dask_address: str | None = None) -> tuple[list[CaseOutcome], str]:
-    """(outcomes in case order, how they were run)."""
-    if dask_address is None and ensemble_eligible(p):
-        return run_ensemble(p), "ensemble kernel (numba parallel over bodies)"
+    """(outcomes in case order, how they were run) — ``run_cases`` without the stop signal."""
+    run = run_cases(p, jobs, dask_address)
+    return run.outcomes, run.how
+
+
+def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, timeout: float | None = None,
+              retries: int = 0) -> SweepRun:
+    """Every case: the ensemble kernel when eligible, else local worker processes (a dead worker
+    or a case over ``timeout`` s costs that case only) or the Dask cluster at ``dask_address``."""
+    if dask_address is None and timeout is None and ensemble_eligible(p):
+        started = time.perf_counter()
+        outcomes = run_ensemble(p)
+        return SweepRun(outcomes, f"ensemble kernel (numba parallel over bodies; {time.perf_counter() - started:.3g} s for all cases)")
+    tasks = list(zip(p.cases, p.scenarios))
     if dask_address is not None:
-        return _run_dask(p, dask_address), f"Dask cluster at {dask_address}"
-    if jobs <= 1 or len(p.cases) == 1:
-        return [run_sweep_case(c, s) for c, s in zip(p.cases, p.scenarios)], "one process"
-    with process_pool(jobs) as pool:
-        return list(pool.map(run_sweep_case, p.cases, p.scenarios, chunksize=max(1, len(p.cases) // (8 * jobs)))), f"{jobs} local processes"
+        from rotlab.cluster import run_on_dask
+
+        run, how = run_on_dask(run_sweep_case, tasks, dask_address, retries=retries), f"Dask cluster at {dask_address}"
+    else:
+        run = run_tasks(run_sweep_case, tasks, jobs, timeout=timeout, retries=retries)
+        how = f"{min(jobs, len(tasks))} local worker process{'es' if min(jobs, len(tasks)) > 1 else ''}"
+    return SweepRun(collect_outcomes(p, run), how, run.stopped)
 
 
-def _run_dask(p: SweepPlan, address: str) -> list[CaseOutcome]:
-    try:
-        from dask.distributed import Client
-    except ImportError:
-        raise InputError("--dask", "Dask is not installed: pip install 'rotlab[dask]'") from None
-    try:
-        client = Client(address, timeout=DASK_CONNECT_TIMEOUT)
-    except (OSError, TimeoutError) as exc:
-        raise InputError("--dask", f"cannot reach a Dask scheduler at {address}: {exc}") from None
-    with client:
-        futures = client.map(run_sweep_case, p.cases, p.scenarios, pure=False)
-        return client.gather(futures)
+def collect_outcomes(p: SweepPlan, run: TaskRun) -> list[CaseOutcome]:
+    """Outcomes in case order: a task's failure (dead worker, timeout) or a case that never
+    finished (the sweep was stopped) becomes an "error" outcome that says so."""
+    ended = {e.index: e for e in run.ends}
+    name = signal.Signals(run.stopped).name if run.stopped else ""
+    outcomes = []
+    for i, case in enumerate(p.cases):
+        end = ended.get(i)
+        if end is not None and end.failure is None:
+            outcomes.append(end.result)
+        elif end is not None:
+            outcomes.append(CaseOutcome(case.index, case.values, "error", seconds=end.seconds, message=end.failure))
+        else:
+            state = "stopped while running" if i in run.running else "not finished"
+            outcomes.append(CaseOutcome(case.index, case.values, "error", message=f"{state} (the sweep received {name})"))
+    return outcomes

@@ -1,0 +1,282 @@
+"""Measure the constants of ``auto``'s cost model (``rotlab/methods/cost.py``) and print them.
+
+    python benchmarks/fit_cost_model.py [--repeats N]
+
+Every figure is a median of repeated ``Method.solve`` calls (warm numba cache, first call not
+counted).  Costs are modelled as
+
+    seconds = per_call + per_step · steps + per_sample · samples
+
+per_call from a one-step, two-sample run; per_step from runs of one scene at two step counts
+(a least-squares line); per_sample from one step per sample against 11 samples.  What is measured:
+
+* ``exact``: set-up (2 samples) and the cost per sample (20 001 samples), for an asymmetric free
+  body, an axisymmetric free body and the Lagrange top (configs/lagrange.toml);
+* ``dmv``: the cost per step as a function of h·Ω (its implicit rotation iterates more at large
+  steps), GNI body, order 10 (every order costs the same per step);
+* ``splitting`` (orders 2–8) and ``rk4``: per step, on a free body and under gravity
+  (``rk4`` also with every load kind: configs/general.toml);
+* ``taylor``: per step as a + b N² (orders 8–24) on a free body, under gravity and with every load
+  kind, and per sample;
+* the one-time cost of a method's first call in a process, with the kernels in numba's on-disk
+  cache: numba's own first use (its target context imports its numpy and BLAS support: ``init``)
+  and loading each kernel (``load``), from fresh subprocesses that run two methods in turn;
+* the error constants C of the fixed-step methods, err ≈ C (hΩ)^p ΩT, from each method's own
+  tolerance probe on every bench problem it applies to (the largest C is kept: the a priori step
+  is then never longer than the probe's), and the rotation per ``taylor`` step at the Jorba–Zou
+  order (the median over the bench problems).
+
+The printed dictionary is pasted into ``rotlab/methods/cost.py`` (``CONSTANTS``) together with the
+date and the load average of the run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import time
+
+import numpy as np
+
+from rotlab.bench.problems import CONFIGS, all_problems
+from rotlab.config import load_scenario, parse_scenario
+from rotlab.core.taylor import default_order
+from rotlab.methods.base import Settings
+from rotlab.methods.registry import get_method
+from rotlab.scene.scene import build_scene
+
+
+def median_time(fn, repeats: int) -> float:
+    fn()
+    samples = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        fn()
+        samples.append(time.perf_counter() - started)
+    return statistics.median(samples)
+
+
+def scene_of(data: dict):
+    return build_scene(parse_scenario(data))
+
+
+FREE = {"body": {"principal_moments": [1.0, 1.6, 2.2]}, "initial": {"omega": [1.0, 0.5, 1.5]}, "time": {"end": 1.0}}
+AXI = {"body": {"principal_moments": [2.0, 2.0, 3.0]}, "initial": {"omega": [0.3, -0.2, 1.5]}, "time": {"end": 1.0}}
+HEAVY = {"body": {"principal_moments": [1.0, 1.5, 2.0], "mass": 1.0, "center_of_mass": [0.1, 0.2, 0.5]},
+         "initial": {"omega": [1.0, 0.5, 6.0], "euler_313": [0.0, 0.5, 0.0]},
+         "loads": [{"type": "gravity", "g": [0.0, 0.0, -9.81]}], "time": {"end": 1.0}}
+
+
+def fit_line(xs: list[float], ys: list[float]) -> tuple[float, float]:
+    """(intercept, slope) by least squares."""
+    a = np.vstack([np.ones(len(xs)), np.asarray(xs, float)]).T
+    (c0, c1), *_ = np.linalg.lstsq(a, np.asarray(ys, float), rcond=None)
+    return float(c0), float(c1)
+
+
+def per_step(method, scene, settings_of, step_counts, repeats, samples=11) -> tuple[float, float]:
+    """(per call, per step) from solves over spans with the given step counts, ``samples`` samples."""
+    xs, ys = [], []
+    for n in step_counts:
+        s, span = settings_of(n)
+        t = np.linspace(0.0, span, samples)
+        solution = method.solve(scene, t, s, None)
+        xs.append(solution.steps)
+        ys.append(median_time(lambda: method.solve(scene, t, s, None), repeats))
+    return fit_line(xs, ys)
+
+
+def exact_costs(repeats: int) -> dict:
+    exact = get_method("exact")
+    out = {}
+    lagrange = build_scene(load_scenario(CONFIGS / "lagrange.toml"))
+    for key, scene in (("exact_asymmetric", scene_of(FREE)), ("exact_axisymmetric", scene_of(AXI)), ("exact_lagrange", lagrange)):
+        small, big = np.linspace(0.0, 10.0, 2), np.linspace(0.0, 10.0, 20001)
+        t_small = median_time(lambda: exact.solve(scene, small, Settings(), None), repeats)
+        t_big = median_time(lambda: exact.solve(scene, big, Settings(), None), max(3, repeats // 3))
+        out[key] = {"per_call": t_small, "per_sample": (t_big - t_small) / 19999}
+    return out
+
+
+def dmv_costs(repeats: int) -> dict:
+    """Per step at h·Ω = x: fitted as a + b / (−ln x) (the iterations of the implicit rotation)."""
+    dmv = get_method("dmv")
+    (gni,) = [p for p in all_problems() if p.name == "gni"]
+    scene = build_scene(gni.scenario())
+    rate = scene.rate_scale
+    xs, ys = [], []
+    for x in (0.005, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5):
+        h = x / rate
+        steps = 4000
+        t = np.linspace(0.0, steps * h, 11)
+        s = Settings(step=h, order=10)
+        sec = median_time(lambda: dmv.solve(scene, t, s, None), repeats)
+        xs.append(1.0 / -math.log(x))
+        ys.append(sec / steps)
+    a, b = fit_line(xs, ys)
+    call = tiny_call(dmv, scene, Settings(step=0.01, order=10), repeats)
+    return {"dmv": {"per_call": call, "per_step_a": a, "per_step_b": b, "per_sample": per_sample(dmv, scene, Settings(step=0.01, order=10), repeats)}}
+
+
+def tiny_call(method, scene, settings, repeats) -> float:
+    """The fixed cost of a call: one step, two samples."""
+    t = np.array([0.0, settings.step])
+    return median_time(lambda: method.solve(scene, t, settings, None), 4 * repeats)
+
+
+def per_sample(method, scene, settings, repeats, steps=4000) -> float:
+    """Extra cost of a sample: one step per sample interval against 11 samples, same steps."""
+    span = settings.step * steps
+    few, many = np.linspace(0.0, span, 11), np.linspace(0.0, span, steps + 1)
+    return (median_time(lambda: method.solve(scene, many, settings, None), repeats)
+            - median_time(lambda: method.solve(scene, few, settings, None), repeats)) / (steps - 10)
+
+
+def fixed_step_costs(repeats: int) -> dict:
+    out = {}
+    general = build_scene(load_scenario(CONFIGS / "general.toml"))
+    for name, orders in (("splitting", (2, 4, 6, 8)), ("rk4", (None,))):
+        method = get_method(name)
+        for order in orders:
+            label = name if order is None else f"{name}-{order}"
+            scenes = [("free", scene_of(FREE)), ("forces", scene_of(HEAVY))] + ([("loads", general)] if name == "rk4" else [])
+            for kind, scene in scenes:
+                h = 1e-4
+                _, step = per_step(method, scene, lambda n: (Settings(step=h, order=order, max_steps=10**9), h * n), (2000, 20000), repeats)
+                out.setdefault(label, {})[kind] = step
+            out[label]["per_call"] = tiny_call(method, scene_of(FREE), Settings(step=1e-3, order=order), repeats)
+            out[label]["per_sample"] = per_sample(method, scene_of(FREE), Settings(step=1e-3, order=order), repeats)
+    return out
+
+
+def taylor_costs(repeats: int) -> dict:
+    """Per step = a + b N² for each scene kind, and the per-sample cost of the dense output."""
+    taylor = get_method("taylor")
+    general = build_scene(load_scenario(CONFIGS / "general.toml"))
+    out = {}
+    for kind, scene in (("free", scene_of(FREE)), ("forces", scene_of(HEAVY)), ("loads", general)):
+        xs, ys = [], []
+        for order in (8, 12, 16, 20, 24):
+            s = Settings(rtol=1e-10, atol=1e-12, order=order)
+            _, step = per_step(taylor, scene, lambda n, s=s: (s, 2.0 * n / scene.rate_scale), (100, 400), repeats)
+            xs.append(order * order)
+            ys.append(step)
+        a, b = fit_line(xs, ys)
+        out[kind] = {"a": a, "b": b}
+    scene = scene_of(FREE)
+    s = Settings(rtol=1e-10, atol=1e-12)
+    few, many = np.linspace(0.0, 50.0, 11), np.linspace(0.0, 50.0, 20001)
+    t_few = median_time(lambda: taylor.solve(scene, few, s, None), repeats)
+    t_many = median_time(lambda: taylor.solve(scene, many, s, None), repeats)
+    tiny = median_time(lambda: taylor.solve(scene, np.array([0.0, 1e-3]), s, None), repeats)
+    out["per_sample"] = (t_many - t_few) / 19990
+    out["per_call"] = tiny
+    return out
+
+
+def error_constants() -> dict:
+    """C of err ≈ C (hΩ)^p ΩT from each fixed-step method's probe on every bench problem (the
+    largest), and the median rotation per taylor step at the Jorba–Zou order, rtol 1e-10."""
+    constants: dict[str, float] = {}
+    taylor_rad: list[float] = []
+    taylor = get_method("taylor")
+    for problem in all_problems():
+        scene = build_scene(problem.scenario())
+        t = problem.scenario().time.sample_times()
+        span, rate = float(t[-1] - t[0]), scene.rate_scale
+        for name, orders in (("dmv", (8, 10, 12)), ("splitting", (2, 4, 6, 8)), ("rk4", (None,))):
+            method = get_method(name)
+            if method.unsupported(scene):
+                continue
+            for order in orders:
+                p = order or method.order_of_accuracy
+                h = method.step_for_tolerance(scene, t, 1e-10, p)
+                if h * rate > 0.99 * 20.0 / 40.0:  # at the probe's own cap (h ≤ probe span / 40): no information
+                    continue
+                label = name if order is None else f"{name}-{order}"
+                constants[label] = max(constants.get(label, 0.0), 1e-10 / ((h * rate) ** p * rate * span))
+        solution = taylor.solve(scene, t, Settings(rtol=1e-10, atol=1e-12), None)
+        taylor_rad.append(rate * span / solution.steps)
+    return {"error_constants": constants, "taylor_radians_per_step": statistics.median(taylor_rad),
+            "taylor_radians_per_step_range": (min(taylor_rad), max(taylor_rad)), "taylor_order": default_order(1e-10)}
+
+
+FIRST_USE = """
+import sys, time, numpy as np
+import rotlab
+from rotlab.config import load_scenario
+from rotlab.methods.base import Settings
+from rotlab.methods.registry import get_method
+from rotlab.scene.scene import build_scene
+scene = build_scene(load_scenario(sys.argv[1]))
+t = np.linspace(0.0, 0.01, 2)
+for name in sys.argv[2:]:
+    method, order = name.split("-") if "-" in name else (name, None)
+    s = Settings(step=None if method == "taylor" else 0.005, rtol=1e-10, order=None if order is None else int(order))
+    started = time.perf_counter()
+    get_method(method).solve(scene, t, s, None)
+    first = time.perf_counter() - started
+    started = time.perf_counter()
+    get_method(method).solve(scene, t, s, None)
+    print(name, first - (time.perf_counter() - started))
+"""
+
+
+def first_use_costs(repeats: int) -> dict:
+    """numba's first use in a process (``init``) and each kernel's cache load (``load``), from
+    subprocesses running method pairs in both orders (the second of a pair pays its load only)."""
+    import subprocess
+    import sys
+
+    config = str(CONFIGS / "euler.toml")
+    kernels = ("taylor", "dmv-10", "rk4")
+    subprocess.run([sys.executable, "-c", FIRST_USE, config, *kernels], check=True, capture_output=True)  # fill the cache
+    firsts: dict[str, list[float]] = {k: [] for k in kernels}
+    seconds: dict[str, list[float]] = {k: [] for k in kernels}
+    for _ in range(max(3, repeats // 3)):
+        for k in kernels:
+            others = [x for x in kernels if x != k]
+            out = subprocess.run([sys.executable, "-c", FIRST_USE, config, k, *others], check=True, capture_output=True, text=True).stdout.split()
+            times = dict(zip(out[0::2], map(float, out[1::2])))
+            firsts[k].append(times[k])
+            for other in others:
+                seconds[other].append(times[other])
+    load = {k.split("-")[0]: statistics.median(v) for k, v in seconds.items()}  # "dmv-10" → "dmv": every order is one kernel
+    init = statistics.median(statistics.median(firsts[k]) - load[k.split("-")[0]] for k in kernels)
+    return {"first_use": {"init": init, "load": load}}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=9)
+    args = parser.parse_args()
+    started = time.perf_counter()
+    print(f"# 1-min load average at start: {os.getloadavg()[0]:.2f}")
+    result = {}
+    result.update(exact_costs(args.repeats))
+    result.update(dmv_costs(args.repeats))
+    result.update(fixed_step_costs(args.repeats))
+    result["taylor"] = taylor_costs(args.repeats)
+    result.update(first_use_costs(args.repeats))
+    result.update(error_constants())
+    print("CONSTANTS = {")
+    for key, value in result.items():
+        print(f"    {key!r}: {_fmt(value)},")
+    print("}")
+    print(f"# {time.perf_counter() - started:.0f} s; 1-min load average at the end: {os.getloadavg()[0]:.2f}")
+
+
+def _fmt(value):
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k!r}: {_fmt(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, tuple):
+        return "(" + ", ".join(_fmt(v) for v in value) + ")"
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    return repr(value)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,88 @@
+"""Key paths into a scenario document: ``loads[0].value[2]``, ``initial.omega``, ``body.mass``.
+
+One setter serves every place that edits a scenario before it is validated: ``--set KEY=VALUE``
+on the command line, ``overrides={...}`` in the Python API and the cases of a ``[sweep]``.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from typing import Any, Callable
+
+from rotlab.errors import InputError
+
+_PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)")
+
+Defaults = Callable[[list[str | int]], Any]  # the validated value at a path (for indexing into a default)
+
+
+def parse_key_path(path: str, where: str) -> list[str | int]:
+    """'loads[0].value[2]' → ['loads', 0, 'value', 2]; ``where`` names the path in errors."""
+    parts: list[str | int] = []
+    for piece in path.split("."):
+        match = _PART.fullmatch(piece)
+        if not match:
+            raise InputError(where, "not a key path: write e.g. initial.omega[2] or body.mass")
+        parts.append(match.group(1))
+        parts.extend(int(k) for k in re.findall(r"\[(\d+)\]", match.group(2)))
+    return parts
+
+
+def parse_assignment(text: str) -> tuple[str, Any]:
+    """'initial.omega=[0, 0, 50]' → ('initial.omega', [0, 0, 50]).  The value is a TOML value;
+    a bare word that is not one (``solver.method=rk4``) is taken as a string."""
+    key, sep, raw = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise InputError(f"--set {text}", "write KEY=VALUE, e.g. --set initial.omega=[0,0,50] or --set solver.method=rk4")
+    try:
+        value = tomllib.loads(f"value = {raw.strip()}")["value"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()
+    return key, value
+
+
+def set_at(data: dict[str, Any], path: str, value: Any, where: str, defaults: Defaults) -> None:
+    """Set ``value`` at ``path`` in the raw scenario ``data`` (in place).  Missing tables are
+    created; indexing into a vector the file does not give takes the model's default from
+    ``defaults`` first (``initial.omega[2]`` on a file without ``omega``)."""
+    parts = parse_key_path(path, where)
+    node: Any = data
+    for depth, part in enumerate(parts[:-1]):
+        nxt = parts[depth + 1]
+        if isinstance(part, int):
+            if not isinstance(node, list) or part >= len(node):
+                raise InputError(where, f"index [{part}] is out of range")
+            node = node[part]
+            continue
+        if not isinstance(node, dict):
+            raise InputError(where, f"'{part}' is inside a value, not a table")
+        if part not in node or node[part] is None:
+            node[part] = _as_lists(defaults(parts[: depth + 1]), where) if isinstance(nxt, int) else {}
+        node = node[part]
+    last = parts[-1]
+    if isinstance(last, int):
+        if not isinstance(node, list) or last >= len(node):
+            raise InputError(where, f"index [{last}] is out of range")
+    elif not isinstance(node, dict):
+        raise InputError(where, f"'{last}' is inside a value, not a table")
+    node[last] = value
+
+
+def model_defaults(model: Any) -> Defaults:
+    """``defaults`` for ``set_at`` reading a validated scenario (or any pydantic model)."""
+
+    def value_at(parts: list[str | int]) -> Any:
+        obj: Any = model() if callable(model) else model
+        for part in parts:
+            obj = obj[part] if isinstance(part, int) else getattr(obj, part, None)
+        return obj
+
+    return value_at
+
+
+def _as_lists(value: Any, where: str) -> list[Any]:
+    if value is None:
+        raise InputError(where, "has no value in the scenario to index into: give the whole vector")
+    return [list(v) if isinstance(v, tuple) else v for v in value]

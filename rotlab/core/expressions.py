@@ -1,0 +1,371 @@
+"""Load expressions (programs of ``rotlab.core.opcodes``) in the kernels.
+
+Two ways to run a formula, each where it measured best (docs/benchmarks.md, "expression loads"):
+* on numbers (rk4, rkmk4, dop853): generated source compiled to a numba ``cfunc`` of one fixed
+  signature (``EXPRESSION_SIGNATURE``) — native speed; the kernels receive its address, an
+  integer (the same type for every formula), so they stay compiled and cached on disk, and a
+  new formula costs only its own small compilation (also cached on disk, keyed by a hash).  A stack
+  interpreter over the code array kept every kernel cached too, but cost ~0.5 µs per right-hand
+  side for −k ω (rk4's step 37× slower); a jitted function as a kernel argument recompiles every
+  kernel per formula and cannot be cached.
+* in Taylor mode (taylor): interpreted, below — each coefficient costs a Cauchy product anyway.
+
+``series_step`` runs a program in Taylor mode: each
+instruction owns a row of a tape holding its Taylor coefficients, and coefficient k of every
+row follows from coefficients ≤ k of its operands (w = f(u), series in τ = time − t):
+
+    w = u ± v, c u:     w^[k] = u^[k] ± v^[k]
+    w = u v:            w^[k] = Σ_{j=0..k} u^[j] v^[k−j]                          (Cauchy product)
+    w = u / v:          w^[k] = (u^[k] − Σ_{j=1..k} v^[j] w^[k−j]) / v^[0]
+    w = exp u:          w^[k] = (1/k) Σ_{j=1..k} j u^[j] w^[k−j]
+    w = log u:          w^[k] = (u^[k] − (1/k) Σ_{j=1..k−1} j w^[j] u^[k−j]) / u^[0]
+    s, c = sin u, cos u: s^[k] = (1/k) Σ j u^[j] c^[k−j],  c^[k] = −(1/k) Σ j u^[j] s^[k−j]
+    w = tan u (tanh u): w^[k] = (1/k) Σ j u^[j] d^[k−j],  d = 1 ± w²  (+ for tan, − for tanh)
+    w = √u:             w^[k] = (u^[k] − Σ_{j=1..k−1} w^[j] w^[k−j]) / (2 w^[0])
+    w = u^a (a real):   w^[k] = Σ_{j=0..k−1} (a (k − j) − j) u^[k−j] w^[j] / (k u^[0])
+    w = u^n (integer):  repeated Cauchy products (no division: u^[0] may be 0)
+    w = atan2(y, x):    d = x² + y²,  k d^[0] w^[k] = Σ_{j=1..k} j (x^[k−j] y^[j] − y^[k−j] x^[j])
+                                                   − Σ_{j=1..k−1} (k − j) d^[j] w^[k−j]
+    abs, sign, min, max: the branch of the switching function s = u (abs, sign) or a − b (min,
+    max) on the side of s^[0]; ``switch_limit`` ends a step where s changes sign, so that
+    every step sees one smooth branch (the next one starts on the other side).
+(Griewank & Walther, "Evaluating Derivatives", 2nd ed., §13.2, Table 13.2; Jorba & Zou 2005, §2.)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
+
+from rotlab.core import opcodes as op
+
+# numba sees the opcodes as compile-time constants
+CONST, VAR, NEG, SIN, COS, TAN, EXP, LOG, SQRT, ABS, TANH, SIGN, POWI = (
+    op.CONST, op.VAR, op.NEG, op.SIN, op.COS, op.TAN, op.EXP, op.LOG, op.SQRT, op.ABS, op.TANH, op.SIGN, op.POWI)
+ADD, SUB, MUL, DIV, POW, ATAN2, MIN, MAX = op.ADD, op.SUB, op.MUL, op.DIV, op.POW, op.ATAN2, op.MIN, op.MAX
+FIRST_BINARY = op.FIRST_BINARY
+
+
+# The value of a program: ``rotlab.scene.formulas`` writes each scene's programs as the Python
+# source of one numba ``cfunc`` of this signature, (load, component, x0 … x13) → value, with the
+# helpers below for the operations that need a guard.  Every scene's function has the same
+# numba type, so the kernels that call it are compiled once and cached on disk; they call it
+# through its address (``call_formulas``).
+
+
+def _expression_signature():
+    from numba import types
+
+    f = types.float64
+    return f(types.int64, types.int64, *([f] * op.N_INPUTS))
+
+
+EXPRESSION_SIGNATURE = _expression_signature()
+
+
+@intrinsic
+def call_formulas(typingctx, address, load, component, inputs):
+    """fn(load, component, *inputs) for the cfunc at ``address`` (an int64) of
+    EXPRESSION_SIGNATURE: a direct call through a C function pointer.  The kernels see an
+    integer, the same type for every scene, and no Python object."""
+    sig = types.float64(types.int64, types.int64, types.int64, inputs)
+
+    def codegen(context, builder, signature, args):
+        addr, k, c, values = args
+        f64 = ir.DoubleType()
+        i64 = ir.IntType(64)
+        fnty = ir.FunctionType(f64, [i64, i64] + [f64] * op.N_INPUTS)
+        fn = builder.inttoptr(addr, fnty.as_pointer())
+        return builder.call(fn, [k, c] + [builder.extract_value(values, i) for i in range(op.N_INPUTS)])
+
+    return sig, codegen
+
+
+@njit(cache=True)
+def sign(x):
+    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+
+
+@njit(cache=True)
+def powi(x, n):
+    """x^n for an integer n (|n| ≤ 16) by repeated squaring."""
+    m = abs(n)
+    r = 1.0
+    b = x
+    while m > 0:
+        if m & 1:
+            r *= b
+        b *= b
+        m >>= 1
+    return 1.0 / r if n < 0 else r
+
+
+@njit(cache=True)
+def safe_log(x):
+    return math.log(x) if x > 0.0 else (-np.inf if x == 0.0 else np.nan)
+
+
+@njit(cache=True)
+def safe_sqrt(x):
+    return math.sqrt(x) if x >= 0.0 else np.nan
+
+
+@njit(cache=True)
+def safe_div(x, b):
+    """x / b with IEEE results for b = 0 (numba would raise)."""
+    if b != 0.0:
+        return x / b
+    return np.nan if x == 0.0 or x != x else math.copysign(np.inf, x) * math.copysign(1.0, b)
+
+
+@njit(cache=True)
+def safe_pow(x, b):
+    """x^b for a real constant b: NaN for x < 0 (no complex results)."""
+    if x > 0.0:
+        return x**b
+    if x == 0.0:
+        return 0.0 if b > 0.0 else np.inf
+    return np.nan
+
+
+AUX = 2  # code column: the instruction's first auxiliary tape row, counted from code.shape[0]
+
+
+def aux_rows(opcode: int, arg: int) -> int:
+    """Auxiliary tape rows an instruction needs in Taylor mode (module docstring)."""
+    if opcode in (SIN, COS, TAN, TANH, ATAN2, ABS, SIGN, MIN, MAX):
+        return 1
+    if opcode == POWI:
+        return max(abs(arg) - 1, 0)
+    return 0
+
+
+SWITCH_A, SWITCH_B, SIDE, FORCED = 0, 1, 2, 3  # columns of a switching instruction's auxiliary row
+IMMEDIATE = 1e-8  # a switch within this fraction of the step: the step starts on the other side
+
+
+@njit(cache=True, inline="always")
+def _switch(tape, x, a, b, s0):
+    """Record the switching function s = row a − row b (b < 0: row a alone) and its side at τ = 0
+    (the side ``switch_limit`` forced, once, if any)."""
+    tape[x, SWITCH_A] = a
+    tape[x, SWITCH_B] = b
+    tape[x, SIDE] = tape[x, FORCED] if tape[x, FORCED] != 0.0 else (-1.0 if s0 < 0.0 else 1.0)
+    tape[x, FORCED] = 0.0
+
+
+@njit(cache=True)
+def switch_limit(code, start, stop, tape, order, h):
+    """The step ≤ h that ends just past the first sign change in (0, h] of a switching function
+    of ``code[start:stop]`` (abs, sign, min, max), from its series: 32 samples, then bisection.
+    A change within ``IMMEDIATE`` · h means the step starts at the switch (the previous one
+    ended there, the series' truncation put s⁽⁰⁾ on the old side): the other side is forced and
+    −1 returned — the series must be formed again."""
+    base = code.shape[0]
+    full = h
+    again = False
+    for i in range(start, stop):
+        o = code[i, 0]
+        if o != ABS and o != SIGN and o != MIN and o != MAX:
+            continue
+        x = base + code[i, AUX]
+        a, b, side = int(tape[x, SWITCH_A]), int(tape[x, SWITCH_B]), tape[x, SIDE]
+        lo, hi = 0.0, -1.0
+        for j in range(1, 33):
+            tau = h * j / 32.0
+            if side * _switch_value(tape, a, b, order, tau) < 0.0:
+                hi = tau
+                break
+            lo = tau
+        if hi < 0.0:
+            continue
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if mid <= lo or mid >= hi:
+                break
+            if side * _switch_value(tape, a, b, order, mid) < 0.0:
+                hi = mid
+            else:
+                lo = mid
+        if hi < IMMEDIATE * full:
+            tape[x, FORCED] = -side
+            again = True
+        else:
+            h = min(h, hi)
+    return -1.0 if again else h
+
+
+@njit(cache=True, inline="always")
+def _switch_value(tape, a, b, order, tau):
+    s = 0.0
+    for k in range(order, -1, -1):
+        s = s * tau + (tape[a, k] - (tape[b, k] if b >= 0 else 0.0))
+    return s
+
+
+@njit(cache=True, inline="always")
+def _over(a, b):
+    """a / b, NaN where b = 0: a series through a singular point (√, log, a power or a division
+    at 0) is not defined, and the run stops there as non-finite instead of raising."""
+    return a / b if b != 0.0 else np.nan
+
+
+@njit(cache=True, inline="always")
+def _cauchy(tape, a, b, k):
+    """Σ_{j=0..k} a^[j] b^[k−j] of tape rows a and b."""
+    s = 0.0
+    for j in range(k + 1):
+        s += tape[a, j] * tape[b, k - j]
+    return s
+
+
+@njit(cache=True)
+def _unary_series(o, arg, i, a, x, tape, k):
+    """Coefficient k of row i = o(row a); x is the instruction's first auxiliary row."""
+    u0 = tape[a, 0]
+    if o == NEG:
+        tape[i, k] = -tape[a, k]
+    elif o == SIN or o == COS:
+        s, c = (i, x) if o == SIN else (x, i)
+        if k == 0:
+            tape[s, 0] = math.sin(u0)
+            tape[c, 0] = math.cos(u0)
+        else:
+            ss = sc = 0.0
+            for j in range(1, k + 1):
+                ss += j * tape[a, j] * tape[c, k - j]
+                sc += j * tape[a, j] * tape[s, k - j]
+            tape[s, k] = ss / k
+            tape[c, k] = -sc / k
+    elif o == TAN or o == TANH:
+        sg = 1.0 if o == TAN else -1.0
+        if k == 0:
+            w0 = math.tan(u0) if o == TAN else math.tanh(u0)
+            tape[i, 0] = w0
+            tape[x, 0] = 1.0 + sg * w0 * w0
+        else:
+            acc = 0.0
+            for j in range(1, k + 1):
+                acc += j * tape[a, j] * tape[x, k - j]
+            tape[i, k] = acc / k
+            tape[x, k] = sg * _cauchy(tape, i, i, k)
+    elif o == EXP:
+        if k == 0:
+            tape[i, 0] = math.exp(u0)
+        else:
+            acc = 0.0
+            for j in range(1, k + 1):
+                acc += j * tape[a, j] * tape[i, k - j]
+            tape[i, k] = acc / k
+    elif o == LOG:
+        if k == 0:
+            tape[i, 0] = math.log(u0) if u0 > 0.0 else (-np.inf if u0 == 0.0 else np.nan)
+        else:
+            acc = 0.0
+            for j in range(1, k):
+                acc += j * tape[i, j] * tape[a, k - j]
+            tape[i, k] = _over(tape[a, k] - acc / k, u0)
+    elif o == SQRT:
+        if k == 0:
+            tape[i, 0] = math.sqrt(u0) if u0 >= 0.0 else np.nan
+        else:
+            acc = 0.0
+            for j in range(1, k):
+                acc += tape[i, j] * tape[i, k - j]
+            tape[i, k] = _over(tape[a, k] - acc, 2.0 * tape[i, 0])
+    elif o == ABS or o == SIGN:
+        if k == 0:
+            _switch(tape, x, a, -1, u0)
+        if o == ABS:
+            tape[i, k] = tape[x, SIDE] * tape[a, k]
+        else:
+            tape[i, k] = sign(u0) if k == 0 else 0.0
+    elif o == POWI:
+        m = abs(arg)
+        if m == 0:
+            tape[i, k] = 1.0 if k == 0 else 0.0
+            return
+        last = a  # row of u^j, j = 1 .. m (u^j for j ≥ 2 in rows x + j − 2)
+        for j in range(2, m + 1):
+            row = x + j - 2
+            tape[row, k] = _cauchy(tape, last, a, k)
+            last = row
+        if arg > 0:
+            tape[i, k] = tape[last, k]
+        else:  # 1 / u^m
+            acc = 1.0 if k == 0 else 0.0
+            for j in range(1, k + 1):
+                acc -= tape[last, j] * tape[i, k - j]
+            tape[i, k] = _over(acc, tape[last, 0])
+
+
+@njit(cache=True)
+def _binary_series(o, i, a, b, x, tape, k):
+    """Coefficient k of row i = o(row a, row b); x is the instruction's first auxiliary row."""
+    if o == ADD:
+        tape[i, k] = tape[a, k] + tape[b, k]
+    elif o == SUB:
+        tape[i, k] = tape[a, k] - tape[b, k]
+    elif o == MUL:
+        tape[i, k] = _cauchy(tape, a, b, k)
+    elif o == DIV:
+        acc = tape[a, k]
+        for j in range(1, k + 1):
+            acc -= tape[b, j] * tape[i, k - j]
+        tape[i, k] = _over(acc, tape[b, 0])
+    elif o == POW:  # the exponent is a constant: row b holds it at order 0
+        e = tape[b, 0]
+        u0 = tape[a, 0]
+        if k == 0:
+            tape[i, 0] = u0**e if u0 > 0.0 else (0.0 if u0 == 0.0 and e > 0.0 else np.nan)
+        else:
+            acc = 0.0
+            for j in range(k):
+                acc += (e * (k - j) - j) * tape[a, k - j] * tape[i, j]
+            tape[i, k] = _over(acc, k * u0)
+    elif o == ATAN2:  # a = y, b = x, aux d = x² + y²
+        if k == 0:
+            tape[i, 0] = math.atan2(tape[a, 0], tape[b, 0])
+            tape[x, 0] = tape[a, 0] ** 2 + tape[b, 0] ** 2
+        else:
+            acc = 0.0
+            for j in range(1, k + 1):
+                acc += j * (tape[b, k - j] * tape[a, j] - tape[a, k - j] * tape[b, j])
+            for j in range(1, k):
+                acc -= (k - j) * tape[x, j] * tape[i, k - j]
+            tape[i, k] = _over(acc, k * tape[x, 0])
+            tape[x, k] = _cauchy(tape, a, a, k) + _cauchy(tape, b, b, k)
+    elif o == MIN or o == MAX:  # s = a − b: min is b where s > 0, max is a there
+        if k == 0:
+            _switch(tape, x, a, b, tape[a, 0] - tape[b, 0])
+        upper = tape[x, SIDE] > 0.0
+        tape[i, k] = tape[a, k] if upper == (o == MAX) else tape[b, k]
+
+
+@njit(cache=True)
+def series_step(code, consts, start, stop, k, inputs, tape, stack):
+    """Coefficient k of every instruction of ``code[start:stop]`` into ``tape`` (row = code
+    index, auxiliary rows after ``code.shape[0]``), given coefficients < k already there and
+    ``inputs`` = the inputs' coefficient k.  Returns the row of the program's value."""
+    base = code.shape[0]
+    sp = 0
+    for i in range(start, stop):
+        o = code[i, 0]
+        arg = code[i, 1]
+        if o == CONST:
+            tape[i, k] = consts[arg] if k == 0 else 0.0
+        elif o == VAR:
+            tape[i, k] = inputs[arg]
+        elif o < FIRST_BINARY:
+            _unary_series(o, arg, i, stack[sp - 1], base + code[i, AUX], tape, k)
+            sp -= 1
+        else:
+            _binary_series(o, i, stack[sp - 2], stack[sp - 1], base + code[i, AUX], tape, k)
+            sp -= 2
+        stack[sp] = i
+        sp += 1
+    return stack[0]

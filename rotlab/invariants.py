@@ -1,0 +1,83 @@
+"""The invariants rotlab reports: one row per invariant — its name, the label a recording shows,
+when a scene has it, and its relative drift.  Config checks, scenes, trajectories and the
+recording all read this table (this module imports only numpy).
+
+    T = ½ ω·Iω,  L = Iω (body) and R L (space),  V = −Σ F·(R p),  W = ∫ M_nc·ω dt,  H = T + V − W.
+Scale: |L₀| for momenta, max(|H₀|, T₀ + |V₀|) for energy; absolute when the scale is zero.
+    energy            (H − H₀)/scale                     every scene
+    quaternion_norm   |Λ| − 1                            every scene
+    L_norm            (|L| − |L₀|)/|L₀|                  torque-free
+    L_space           |L_space − L_space₀| / |L₀|        torque-free
+    L_vertical        (L_space − L_space₀)·up / |L₀|     parallel forces, no work (up = −F̂)
+    L_symmetry        (L − L₀)·e_sym / |L₀|              Lagrange top
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Series:
+    """What a drift is computed from (principal frame, valid samples only), and the values at the
+    run's first sample it is measured from (a streamed run's chunks all share them)."""
+
+    q: np.ndarray  # (N, 4) Λ as integrated
+    L_body: np.ndarray  # (N, 3)
+    L_space: np.ndarray  # (N, 3)
+    energy: np.ndarray  # (N,) H = T + V − W
+    energy0: float  # H₀
+    L_body0: np.ndarray  # (3,)
+    L_space0: np.ndarray  # (3,)
+    energy_scale: float
+    L_scale: float  # |L₀|
+    field_direction: np.ndarray | None
+    symmetry_axis: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class Invariant:
+    name: str
+    label: str  # as a recording's legend shows it (short: the formulas are in the module docstring)
+    applies: Callable[[Any], bool]  # scene → does this scene conserve it
+    drift: Callable[[Series], np.ndarray]
+
+
+def _relative(x: np.ndarray, scale: float) -> np.ndarray:
+    return x / scale if scale > 0.0 else x
+
+
+TABLE: tuple[Invariant, ...] = (
+    Invariant("energy", "T+V−W", lambda scene: True,
+              lambda s: _relative(s.energy - s.energy0, s.energy_scale)),
+    Invariant("quaternion_norm", "|Λ|−1", lambda scene: True,
+              lambda s: np.linalg.norm(s.q, axis=1) - 1.0),
+    Invariant("L_norm", "|L|", lambda scene: scene.kind == "torque_free",
+              lambda s: _relative(np.linalg.norm(s.L_body, axis=1) - s.L_scale, s.L_scale)),
+    Invariant("L_space", "L space", lambda scene: scene.kind == "torque_free",
+              lambda s: _relative(np.linalg.norm(s.L_space - s.L_space0, axis=1), s.L_scale)),
+    Invariant("L_vertical", "L·up", lambda scene: scene.field_direction is not None,
+              lambda s: _relative(np.einsum("ij,j->i", s.L_space - s.L_space0, s.field_direction), s.L_scale)),
+    Invariant("L_symmetry", "L·e", lambda scene: scene.symmetry_axis is not None,
+              lambda s: _relative(np.einsum("ij,j->i", s.L_body - s.L_body0, s.symmetry_axis), s.L_scale)),
+)
+
+NAMES: tuple[str, ...] = tuple(row.name for row in TABLE)
+LABELS: dict[str, str] = {row.name: row.label for row in TABLE}
+
+
+def names_for(scene: Any) -> tuple[str, ...]:
+    """The invariants of ``scene`` (in table order)."""
+    return tuple(row.name for row in TABLE if row.applies(scene))
+
+
+def drifts(names: tuple[str, ...], series: Series) -> dict[str, np.ndarray]:
+    """Relative drift of each named invariant along ``series`` (empty arrays for no samples)."""
+    if not len(series.q):
+        return {name: np.zeros(0) for name in names}
+    rows = {row.name: row for row in TABLE}
+    return {name: rows[name].drift(series) for name in names}

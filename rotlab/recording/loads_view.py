@@ -1,0 +1,98 @@
+"""Each applied load as the viewer shows it: an arrow at its point of application (space frame)
+and its torque over time, from the scene's own load model.
+
+For load i alone, the torque is the one the kernels integrate: ``core.torques`` applied to the
+model of a scenario holding load i only (body, principal frame),
+    M_i = conservative_torque(y, model_i) + nonconservative_torque(t, y, model_i),
+so any load kind the scene model compiles is drawn without a second implementation of it.
+Arrows: a force F at body point p is drawn as F (space frame) starting at R p; gravity as m g at
+R r_c; every other load as its torque M (space frame) starting at the fixed point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from rotlab.config import models as cfg
+from rotlab.core import quaternion as quat
+from rotlab.core.state import STATE_SIZE
+from rotlab.core.torques import conservative_torque, nonconservative_torque
+from rotlab.scene.loads import build_model, compile_loads
+
+MAX_LOAD_SAMPLES = 20_000  # load arrows drawn per load and run
+
+
+@dataclass(frozen=True)
+class LoadView:
+    symbol: str  # 3D label: F1, M2, mg
+    kind: str  # "force" (arrow is a force at a point) or "torque" (arrow is a torque at the fixed point)
+    conservative: bool  # a constant space-frame force (gravity included): has a potential, no work
+    point: np.ndarray | None  # body frame (user's), m — forces only
+    force: np.ndarray | None  # N, in ``force_frame``
+    force_frame: str  # "space" | "body"
+    arrays: object  # LoadArrays of this load alone (principal frame)
+    model: object  # the kernels' Model of the same (what the torque is evaluated with)
+    description: str
+
+
+def load_views(scene) -> list[LoadView]:
+    """One ``LoadView`` per load of the scenario, in the order written (built once per scene)."""
+    return scene.cached("recording.load_views", lambda: _build(scene))
+
+
+def _build(scene) -> list[LoadView]:
+    scenario = scene.scenario
+    out = []
+    n_force = n_torque = 0
+    for load in scenario.loads:
+        alone = compile_loads(scenario.model_copy(update={"loads": [load]}), scene.axes, scene.moments, None)
+        kind_name = getattr(load, "type", type(load).__name__.lower())
+        frame = getattr(load, "frame", "space")
+        if isinstance(load, cfg.Gravity):
+            mass = scenario.body.mass or 0.0
+            out.append(LoadView("mg", "force", True, np.asarray(scenario.body.center_of_mass, float),
+                                mass * np.asarray(load.g, float), "space", alone, build_model(alone, scene.moments), "gravity m·g at the centre of mass (space frame)"))
+        elif isinstance(load, cfg.Force):
+            n_force += 1
+            out.append(LoadView(f"F{n_force}", "force", frame == "space", np.asarray(load.point, float),
+                                np.asarray(load.value, float), frame, alone, build_model(alone, scene.moments), f"force {n_force} ({frame} frame) at its point"))
+        else:
+            n_torque += 1
+            out.append(LoadView(f"M{n_torque}", "torque", False, None, None, frame, alone, build_model(alone, scene.moments),
+                                f"{kind_name} ({frame} frame), drawn at the fixed point"))
+    return out
+
+
+def torques(scene, view: LoadView, t: np.ndarray, q_p: np.ndarray, w_p: np.ndarray) -> np.ndarray:
+    """(N, 3) torque of one load, principal body frame, at the given samples (principal state)."""
+    out = np.empty((t.shape[0], 3))
+    _torques(np.ascontiguousarray(t, dtype=np.float64), np.ascontiguousarray(q_p), np.ascontiguousarray(w_p), view.model, out)
+    return out
+
+
+@njit(cache=True)
+def _torques(t, q_p, w_p, model, out):
+    """out[k] = the torque of ``model``'s loads at sample k (see module docstring)."""
+    y = np.zeros(STATE_SIZE)
+    for k in range(t.shape[0]):
+        for i in range(4):
+            y[i] = q_p[k, i]
+        for i in range(3):
+            y[4 + i] = w_p[k, i]
+        cx, cy, cz = conservative_torque(y, model)
+        nx, ny, nz = nonconservative_torque(t[k], y, model)
+        out[k, 0], out[k, 1], out[k, 2] = cx + nx, cy + ny, cz + nz
+
+
+def principal_state(scene, quaternion_user: np.ndarray, omega_user: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(Λ_P, ω_P) from the user's-frame series: Λ_P = Λ_U ∘ Λ_axes, ω_P = axesᵀ ω_U."""
+    q_p = quat.multiply_array(quaternion_user, np.broadcast_to(scene.axes_quaternion, quaternion_user.shape))
+    return q_p, omega_user @ scene.axes
+
+
+def sample_stride(scene) -> int:
+    """Evaluate loads at every k-th sample so that a run costs at most MAX_LOAD_SAMPLES calls per load."""
+    return max(1, -(-scene.scenario.time.sample_count // MAX_LOAD_SAMPLES))

@@ -1,0 +1,284 @@
+"""Where a recording goes: a file, live viewers, or both — the one place that writes bytes.
+
+The file.  Rerun encodes the stream (its ``FileSink``) into a pipe, not into the file: a pump
+thread copies the pipe into a temporary file beside the target with ``os.write``, so every
+write is checked.  A write error (disk full, file system gone) is remembered, the pump keeps
+draining the pipe (Rerun never blocks on it, so nothing can hang), and the writer raises
+``RunFailure`` at its next chunk.  When the stream ends, the finished file is verified before
+the atomic rename:
+
+* the size on disk equals the bytes Rerun produced;
+* the RRD stream footer is there: the last 32 bytes are
+  ``[footer offset u64][footer length u64][crc u32]["RRF2FOOT"][version u32]`` (little endian)
+  and offset + length + 32 = file size;
+* Rerun's own reader decodes the footer's manifest and finds this recording.
+
+(``rerun rrd verify`` is no substitute: it exits 0 on an empty or truncated file.)  A failed
+run's temporary file is removed and an existing file at the target is never touched.
+
+Live viewers (``--spawn``, ``--connect``, ``--serve-web``) are Rerun's own gRPC sinks on the
+same stream: the same bytes, the same blueprint.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import uuid
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import rerun as rr
+import rerun.blueprint as rrb
+
+from rotlab.errors import RunFailure
+
+FOOTER_MAGIC = b"RRF2FOOT"
+STREAM_FOOTER_BYTES = 32
+PIPE_READ = 1 << 20
+FLUSH_TIMEOUT = 120.0  # s: Rerun's encoder drains into our pump, which never blocks: a safety net only
+LIVE_TIMEOUT = 10.0  # s: at the end, how long the live viewers get to take the rest
+
+
+@dataclass(frozen=True)
+class LiveOptions:
+    """Live sinks, Rerun's way: spawn a viewer, connect to one, or serve the web viewer."""
+
+    spawn: bool = False
+    connect: str | None = None  # gRPC URL, e.g. rerun+http://127.0.0.1:9876/proxy
+    serve_web: bool = False
+    web_port: int | None = None
+    grpc_port: int = 9876
+
+    @property
+    def any(self) -> bool:
+        return self.spawn or self.connect is not None or self.serve_web
+
+
+class _Pump(threading.Thread):
+    """Copies the pipe into the temporary file with checked writes; drains after an error."""
+
+    def __init__(self, read_fd: int, target_fd: int) -> None:
+        super().__init__(name="rotlab-rrd-pump", daemon=True)
+        self.read_fd, self.target_fd = read_fd, target_fd
+        self.written = 0
+        self.error: OSError | None = None
+
+    def run(self) -> None:
+        while True:
+            data = os.read(self.read_fd, PIPE_READ)
+            if not data:
+                break
+            if self.error is None:
+                try:
+                    view = memoryview(data)
+                    while view:
+                        n = os.write(self.target_fd, view)
+                        self.written += n
+                        view = view[n:]
+                except OSError as exc:  # keep draining so that Rerun's writer never blocks
+                    self.error = exc
+        os.close(self.read_fd)
+
+
+class _Tee:
+    """Logs to several recording streams (the file's and the live viewers')."""
+
+    def __init__(self, streams: list[rr.RecordingStream]) -> None:
+        self.streams = streams
+
+    def log(self, *args, **kwargs) -> None:
+        for rec in self.streams:
+            rec.log(*args, **kwargs)
+
+    def send_columns(self, *args, **kwargs) -> None:
+        for rec in self.streams:
+            rec.send_columns(*args, **kwargs)
+
+
+class RecordingSink:
+    """The recording's streams and sinks.  Use ``rec`` to log; ``drain()`` after each chunk;
+    ``close(path)`` to finish, verify and rename; ``abort()`` to drop the file.
+
+    The file and the live viewers get separate Rerun streams with the same recording id, so a
+    slow, unreachable or killed viewer can neither stall the file's back-pressure nor its end:
+    the live stream is never waited for longer than ``LIVE_TIMEOUT``."""
+
+    def __init__(self, target: Path | None, live: LiveOptions | None = None, application_id: str = "rotlab") -> None:
+        self.target = target
+        self.live = live or LiveOptions()
+        self.recording_id = str(uuid.uuid4())
+        self._file_rec = self._live_rec = None
+        streams = []
+        if target is not None:
+            self._file_rec = rr.RecordingStream(application_id, recording_id=self.recording_id)
+            streams.append(self._file_rec)
+        if self.live.any:
+            self._live_rec = rr.RecordingStream(application_id, recording_id=self.recording_id)
+            streams.append(self._live_rec)
+        for rec in streams:
+            rec.set_log_time_enabled(False)
+        if self.live.spawn:
+            self._spawn_viewer()
+        self.rec = streams[0] if len(streams) == 1 else _Tee(streams)
+        self.tmp: Path | None = None
+        self._pump: _Pump | None = None
+        self._write_fd: int | None = None
+        self._target_fd: int | None = None
+        self.web_url: str | None = None
+        self._closed = False
+        if target is not None:
+            self.tmp = target.with_name(f".{target.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+            self._target_fd = os.open(self.tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+            read_fd, self._write_fd = os.pipe()
+            self._pump = _Pump(read_fd, self._target_fd)
+            self._pump.start()
+
+    def _spawn_viewer(self) -> None:
+        """Start a Rerun viewer listening on the gRPC port (before any work: a missing viewer is
+        a one-line error, not a lost run)."""
+        import shutil
+        import sys
+
+        executable = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
+        try:
+            rr.spawn(port=self.live.grpc_port, connect=False, hide_welcome_screen=True, executable_path=executable,
+                     recording=self._live_rec)
+        except Exception as exc:  # noqa: BLE001 — Rerun raises RuntimeError/OSError with a long help text
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise RunFailure(f"--spawn: could not start the Rerun viewer ({first})") from None
+
+    def open(self, blueprint: rrb.Blueprint) -> None:
+        """Attach every sink (file pipe and live viewers) with the default ``blueprint``."""
+        if self._file_rec is not None:
+            self._file_rec.set_sinks(rr.FileSink(f"/dev/fd/{self._write_fd}"), default_blueprint=blueprint)
+        if self._live_rec is None:
+            return
+        sinks: list = []
+        if self.live.spawn:
+            sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{self.live.grpc_port}/proxy"))
+        if self.live.connect is not None:
+            sinks.append(rr.GrpcSink(self.live.connect))
+        server = None
+        if self.live.serve_web:
+            server = rr.GrpcServerSink(port=self.live.grpc_port)
+            sinks.append(server)
+        self._live_rec.set_sinks(*sinks, default_blueprint=blueprint)
+        self._live_rec.send_blueprint(blueprint, make_active=True)
+        if server is not None:
+            rr.serve_web_viewer(web_port=self.live.web_port, open_browser=False, connect_to=server.uri)
+            self.web_url = f"http://127.0.0.1:{self.live.web_port or 9090}/?url={server.uri.replace('0.0.0.0', '127.0.0.1')}"
+
+    def update_blueprint(self, blueprint: rrb.Blueprint) -> None:
+        """Replace the default layout (the final one, from the whole run: plot ranges that the
+        first chunk alone could not know) in the file and in live viewers."""
+        for rec in (self._file_rec, self._live_rec):
+            if rec is not None:
+                rec.send_blueprint(blueprint, make_active=True, make_default=True)
+
+    def drain(self) -> None:
+        """Wait until Rerun has encoded what was sent to the file and the pump has taken it:
+        back-pressure, so that memory holds one chunk, not a backlog that grows with the run."""
+        if self._file_rec is not None:
+            self._file_rec.flush(timeout_sec=FLUSH_TIMEOUT)
+        if self._live_rec is not None:
+            self._live_rec.flush(timeout_sec=0.0)  # start sending; never wait for a viewer
+        self.check()
+
+    def check(self) -> None:
+        """Raise ``RunFailure`` if a write to the file has failed (disk full, …)."""
+        if self._pump is not None and self._pump.error is not None:
+            raise RunFailure(f"could not write the recording {self.target}: {self._pump.error.strerror or self._pump.error}")
+
+    def _finish_stream(self) -> None:
+        """Flush Rerun's encoder, end the stream (footer) and wait for the pump to drain it."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._live_rec is not None:
+            try:
+                self._live_rec.flush(timeout_sec=LIVE_TIMEOUT)
+            except RuntimeError:  # the viewer is gone or too slow: the file does not depend on it
+                pass
+            self._live_rec.disconnect()
+        if self._file_rec is None:
+            return
+        try:
+            self._file_rec.flush(timeout_sec=FLUSH_TIMEOUT)
+        finally:
+            self._file_rec.disconnect()
+            if self._write_fd is not None:
+                os.close(self._write_fd)
+            if self._pump is not None:
+                self._pump.join(FLUSH_TIMEOUT)
+            if self._target_fd is not None:
+                os.close(self._target_fd)
+
+    def close(self, path: Path | None = None) -> Path | None:
+        """End the stream; verify the file and rename it to ``path`` (default: the target).
+        On any failure the temporary file is removed and ``RunFailure`` raised."""
+        try:
+            self._finish_stream()
+            if self.tmp is None:
+                return None
+            if self._pump is not None and self._pump.is_alive():
+                raise RunFailure(f"could not write the recording {self.target}: the file system did not take the data in {FLUSH_TIMEOUT:g} s")
+            self.check()
+            self._verify()
+            final = path or self.target
+            assert final is not None
+            os.replace(self.tmp, final)
+            return final
+        except (OSError, RuntimeError) as exc:
+            self._remove_tmp()
+            raise RunFailure(f"could not write the recording {path or self.target}: {exc}") from None
+        except BaseException:
+            self._remove_tmp()
+            raise
+
+    def abort(self) -> None:
+        """Drop everything: end the stream and remove the temporary file (never the target)."""
+        try:
+            self._finish_stream()
+        except Exception:  # noqa: BLE001 — the run already failed; the file goes anyway
+            pass
+        self._remove_tmp()
+
+    def _remove_tmp(self) -> None:
+        if self.tmp is not None:
+            self.tmp.unlink(missing_ok=True)
+
+    def _verify(self) -> None:
+        assert self.tmp is not None and self._pump is not None
+        verify_rrd(self.tmp, expected_size=self._pump.written, recording_id=self.recording_id)
+
+
+def verify_rrd(path: Path, expected_size: int | None = None, recording_id: str | None = None) -> None:
+    """Raise ``RunFailure`` unless ``path`` is a complete RRD stream (see the module docstring)."""
+    size = path.stat().st_size
+    if expected_size is not None and size != expected_size:
+        raise RunFailure(f"recording {path} is {size:,} bytes on disk, {expected_size:,} were written")
+    if size < STREAM_FOOTER_BYTES:
+        raise RunFailure(f"recording {path} is incomplete ({size} bytes)")
+    with open(path, "rb") as f:
+        f.seek(size - STREAM_FOOTER_BYTES)
+        tail = f.read(STREAM_FOOTER_BYTES)
+    offset, length = int.from_bytes(tail[0:8], "little"), int.from_bytes(tail[8:16], "little")
+    if tail[20:28] != FOOTER_MAGIC or offset + length + STREAM_FOOTER_BYTES != size:
+        raise RunFailure(f"recording {path} is incomplete: no RRD footer at its end")
+    from rerun.chunk import RrdReader
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # "no footer/manifest" is a warning in Rerun's reader
+        try:
+            reader = RrdReader(path)
+            stores = reader.recordings()
+            ids = [s.recording_id for s in stores]
+            if recording_id is not None and recording_id not in ids:
+                raise RunFailure(f"recording {path} does not hold this run's recording (found {ids})")
+            reader.store(store=stores[ids.index(recording_id)] if recording_id in ids else None)
+        except RunFailure:
+            raise
+        except Exception as exc:  # noqa: BLE001 — Rerun's reader raises RuntimeError/ValueError/warnings
+            raise RunFailure(f"recording {path} does not read back: {exc}") from None

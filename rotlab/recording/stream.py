@@ -1,0 +1,90 @@
+"""The streaming pipeline's middle: rows of state from a method (``RowConsumer``) become chunks
+of the run's diagnostics (``build_chunk``) and go to the ``RecordingWriter`` as they come.
+
+Memory is bounded by ``FLUSH_ROWS`` (the chunk being converted) and the ``Thinned`` copy for the
+static paths, whatever the run's length.  The drifts are measured from the run's first sample
+(``Reference``), the Euler angles unwrapped across chunks, and the maxima of the drifts kept for
+the summary.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from rotlab.recording.writer import RecordingWriter, Thinned
+from rotlab.scene.scene import Scene
+from rotlab.trajectory import Reference, RunStats, RunSummary, build_chunk, reference_of
+
+FLUSH_ROWS = 1 << 14  # rows converted and sent together (= writer.CHUNK_ROWS)
+FLUSH_SECONDS = 0.5  # ... or whatever has come in this long: a slow run is seen (and kept) as it goes
+
+
+class ChunkStream:
+    """A ``RowConsumer`` (see ``rotlab.methods.stepping``) that writes the run as it is produced."""
+
+    def __init__(self, scene: Scene, stats: RunStats, writer: RecordingWriter, euler_angles: bool,
+                 progress=None, total: int = 0) -> None:
+        self.scene, self.stats, self.writer, self.euler_angles = scene, stats, writer, euler_angles
+        self.progress, self.total = progress, total
+        self.pending_t: list[np.ndarray] = []
+        self.pending_state: list[np.ndarray] = []
+        self.pending = 0
+        self.written = 0  # samples sent to the sink, all series
+        self.reference: Reference | None = None
+        self.previous_angles: np.ndarray | None = None
+        self.drift = {name: 0.0 for name in scene.invariants}
+        self.thinned = Thinned()
+        self.first_time = self.last_time = 0.0
+        self.seconds = 0.0  # spent converting and sending
+        self.flushed_at = time.monotonic()
+
+    def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> None:
+        self.pending_t.append(t.copy())
+        self.pending_state.append(state.copy())
+        self.pending += t.shape[0]
+        if self.pending >= FLUSH_ROWS or time.monotonic() - self.flushed_at > FLUSH_SECONDS:
+            self.flush()
+
+    def flush(self) -> None:
+        """Convert and send the pending rows."""
+        if not self.pending:
+            return
+        started = time.perf_counter()
+        self.flushed_at = time.monotonic()
+        t, state = np.concatenate(self.pending_t), np.concatenate(self.pending_state)
+        self.pending_t, self.pending_state, self.pending = [], [], 0
+        start = self.written
+        with np.errstate(over="ignore", invalid="ignore"):
+            if self.reference is None:
+                self.reference = reference_of(self.scene, state[0])
+                self.first_time = float(t[0])
+            chunk = build_chunk(self.scene, self.stats, t, state, self.reference, self.euler_angles, self.previous_angles)
+            for name, values in chunk.invariants.items():
+                finite = values[np.isfinite(values)]
+                worst = float(np.max(np.abs(finite))) if finite.size else 0.0
+                self.drift[name] = max(self.drift[name], worst if finite.size == values.size else float("inf"))
+        self.thinned.add(start, t, state)
+        self.writer.write(chunk, start)
+        if chunk.euler_angles is not None:
+            self.previous_angles = chunk.euler_angles[-1].copy()
+        self.written += t.shape[0]
+        self.last_time = float(t[-1])
+        self.seconds += time.perf_counter() - started
+        if self.progress is not None:
+            self.progress.written(self.written, self.total)
+
+    def summary(self) -> RunSummary:
+        return RunSummary(self.scene, self.stats, self.written, self.first_time, self.last_time, dict(self.drift))
+
+    def finish(self) -> RunSummary:
+        """Send what is pending, then the static part from the thinned run; returns the summary."""
+        self.flush()
+        started = time.perf_counter()
+        summary = self.summary()
+        t, state = self.thinned.arrays()
+        thinned = build_chunk(self.scene, self.stats, t, state, self.reference, False, None) if t.shape[0] else None
+        self.writer.finish(summary, thinned)
+        self.seconds += time.perf_counter() - started
+        return summary

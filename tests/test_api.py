@@ -1,0 +1,96 @@
+"""The Python API in numpy/scipy habits: overrides validated like the file, a compact repr,
+failures raised with the valid part attached, save() and to_dataframe(), and the README's
+example run as written."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import rotlab
+from rotlab.errors import InputError, RunFailure
+from rotlab.recording import layout
+from rotlab.recording.reader import read_series
+from tests.conftest import CONFIGS, ROOT
+
+
+def test_simulate_takes_duration_method_and_validated_overrides():
+    traj = rotlab.simulate(CONFIGS / "euler.toml", method="dop853", duration=0.5, overrides={"initial.omega[1]": 0.25})
+    assert traj.t[-1] == pytest.approx(traj.t[0] + 0.5) and traj.stats.method == "dop853"
+    assert traj.omega[0, 1] == 0.25
+    with pytest.raises(InputError, match=r"body\.mass.*> 0"):
+        rotlab.simulate(CONFIGS / "lagrange.toml", overrides={"body.mass": -1.0})
+    with pytest.raises(InputError, match="did you mean 'omega'"):
+        rotlab.simulate(CONFIGS / "lagrange.toml", overrides={"initial.omegaa": [0, 0, 1]})
+
+
+def test_overrides_apply_to_scenario_objects_too():
+    scenario = rotlab.load(CONFIGS / "lagrange.toml")
+    traj = rotlab.simulate(scenario, duration=0.2, overrides={"initial.omega[2]": 40.0})
+    assert traj.omega[0, 2] == 40.0 and traj.t[-1] == pytest.approx(0.2)
+
+
+def test_model_copy_validates_the_change():
+    scenario = rotlab.load(CONFIGS / "lagrange.toml")
+    with pytest.raises(InputError, match="mass"):
+        scenario.body.model_copy(update={"mass": -1.0})
+    edited = scenario.model_copy(update={"solver": scenario.solver.model_copy(update={"method": "rk4"})})
+    assert edited.solver.method == "rk4" and edited.body == scenario.body
+
+
+def test_repr_is_one_compact_line():
+    traj = rotlab.simulate(CONFIGS / "euler.toml", duration=0.5)
+    text = repr(traj)
+    assert "\n" not in text and len(text) < 300 and text.startswith("<Trajectory torque-free scene, 51 samples")
+    assert "method exact" in text and text.endswith("; ok>")
+
+
+def test_a_failed_run_raises_with_the_valid_part_or_returns_it_on_request():
+    overrides = {"solver.method": "dop853", "solver.max_steps": 10}
+    with pytest.raises(RunFailure, match="step budget") as stop:
+        rotlab.simulate(CONFIGS / "euler.toml", overrides=overrides)
+    partial = stop.value.trajectory
+    assert not partial.ok and 1 < partial.t.shape[0] < 2001 and np.all(np.isfinite(partial.omega))
+    returned = rotlab.simulate(CONFIGS / "euler.toml", overrides=overrides, check=False)
+    assert not returned.ok and "step budget" in returned.stats.failure
+    assert np.array_equal(returned.omega, partial.omega)
+
+
+def test_save_writes_the_same_recording_as_the_cli(tmp_path):
+    traj = rotlab.simulate(CONFIGS / "lagrange.toml", duration=0.5)
+    path = traj.save(tmp_path / "top.rrd")
+    t, omega = read_series(path, layout.OMEGA)
+    assert np.max(np.abs(t - traj.t)) <= 1e-9 and np.array_equal(omega, traj.omega)  # ns time axis, float64 ω
+
+
+def test_to_dataframe_names_columns_with_frames_and_units():
+    pytest.importorskip("pandas")
+    traj = rotlab.simulate(CONFIGS / "general.toml", duration=0.5)
+    df = traj.to_dataframe()
+    assert len(df) == traj.t.shape[0]
+    assert np.array_equal(df["omega_y_body"].to_numpy(), traj.omega[:, 1])
+    assert np.array_equal(df["L_z_space"].to_numpy(), traj.L_space[:, 2])
+    assert {"potential", "total", "work", "drift_energy"} <= set(df.columns)
+    units = df.attrs["units"]
+    assert units["t"] == "s" and units["omega_x_body"] == "rad/s" and units["L_x_space"] == "kg·m²/s" and units["work"] == "J"
+
+
+def test_public_names():
+    for name in ("simulate", "load", "parse_scenario", "Scenario", "Trajectory", "InputError", "RunFailure", "Interrupted"):
+        assert getattr(rotlab, name) is not None
+    with pytest.raises(AttributeError):
+        rotlab.nonexistent  # noqa: B018
+
+
+def test_readme_python_example_runs_as_written(tmp_path, monkeypatch, capsys):
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- ci:python -->\n```python\n(.*?)```", readme, re.S)
+    assert block, "README lacks the ci:python example"
+    code = block.group(1).replace('"configs/', f'"{CONFIGS}/')
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {})
+    printed = capsys.readouterr().out
+    assert "<Trajectory lagrange scene" in printed and "rad/s" in printed and "stopped: step budget" in printed
+    assert (tmp_path / "top.rrd").exists()

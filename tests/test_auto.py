@@ -1,0 +1,154 @@
+"""``auto`` chooses by expected cost and still meets the requested accuracy.
+
+Bounds: auto's max error ≤ 10·rtol against an exact solution (free bodies, the Lagrange top) or
+dop853 at rtol 1e-14 (loaded scenes).  Only the choice and the error are tested here; nothing is
+timed (the timings are in docs/benchmarks.md).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import rotlab
+from rotlab.methods import cost
+from rotlab.methods.base import Settings
+from rotlab.methods.choose import candidates, choose_method, work_of
+from rotlab.scene.scene import build_scene
+from tests.conftest import CONFIGS
+from tests.helpers import same_rotation_error
+
+
+def _with(path, rtol: float, **time):
+    sc = rotlab.load(path)
+    updates = {"solver": sc.solver.model_copy(update={"rtol": rtol, "atol": rtol * 1e-2})}
+    if time:
+        updates["time"] = sc.time.model_copy(update=time)
+    return sc.model_copy(update=updates)
+
+
+def _warm(sc, *methods: str) -> None:
+    """Load these methods' kernels in this process: auto then compares steady-state costs (a
+    kernel's first use in a process is part of its cost: test_a_single_cli_run_of_a_lagrange_top_uses_exact)."""
+    short = sc.model_copy(update={"time": sc.time.model_copy(update={"end": sc.time.start + 0.01, "sample_rate": None, "samples": 2})})
+    for method in methods:
+        rotlab.simulate(short, method=method)
+
+
+def _error(traj, ref) -> float:
+    omega = np.max(np.abs(traj.omega - ref.omega)) / np.max(np.abs(ref.omega))
+    return max(float(omega), float(np.max(same_rotation_error(traj.quaternion, ref.quaternion))))
+
+
+@pytest.mark.parametrize("rtol", [1e-6, 1e-10, 1e-13])
+def test_auto_on_a_free_body_steps_and_meets_rtol(rtol):
+    """euler.toml: 2001 samples over 20 s, where stepping is cheaper than exact's set-up and
+    per-sample cost; the error against exact stays within 10·rtol."""
+    sc = _with(CONFIGS / "euler.toml", rtol)
+    _warm(sc, "taylor", "dmv", "rk4")
+    auto, ref = rotlab.simulate(sc), rotlab.simulate(sc, method="exact")
+    assert auto.stats.method in ("dmv", "taylor", "rk4")
+    assert "least expected cost" in auto.stats.reason and "exact" in auto.stats.reason  # names what it compared
+    assert _error(auto, ref) <= 10 * rtol
+
+
+def test_auto_uses_exact_near_the_separatrix():
+    """dzhanibekov.toml (m₁ = 1.4e-6): the stepping methods' rounding floor (~1e-9) is above
+    10·rtol, so auto evaluates the exact solution and says why."""
+    traj = rotlab.simulate(_with(CONFIGS / "dzhanibekov.toml", 1e-10))
+    assert traj.stats.method == "exact" and "separatrix" in traj.stats.reason
+
+
+def test_auto_near_the_separatrix_at_loose_rtol_tightens_the_stepper():
+    """At rtol 1e-6 a stepper is cheaper than exact near the separatrix, run at a tolerance
+    divided by the amplification there: error within 10·rtol of exact."""
+    sc = _with(CONFIGS / "dzhanibekov.toml", 1e-6)
+    _warm(sc, "taylor", "dmv", "rk4")
+    auto, ref = rotlab.simulate(sc), rotlab.simulate(sc, method="exact")
+    assert auto.stats.method != "exact"
+    assert _error(auto, ref) <= 1e-5
+
+
+@pytest.mark.parametrize("rtol", [1e-8, 1e-12])
+def test_auto_on_the_lagrange_top_meets_rtol(rtol):
+    sc = _with(CONFIGS / "lagrange.toml", rtol, end=2.0)
+    _warm(sc, "taylor")
+    auto, ref = rotlab.simulate(sc), rotlab.simulate(sc, method="exact")
+    assert _error(auto, ref) <= 10 * rtol
+
+
+@pytest.mark.parametrize("rtol", [1e-6, 1e-10])
+def test_auto_with_gravity_meets_rtol_against_tight_dop853(rtol):
+    """A heavy asymmetric top (conservative, no closed form): auto vs dop853 at rtol 1e-14."""
+    sc = rotlab.load(CONFIGS / "lagrange.toml")
+    body = sc.body.model_copy(update={"principal_moments": [2e-3, 2.6e-3, 1.1e-3]})
+    sc = sc.model_copy(update={"body": body, "time": sc.time.model_copy(update={"end": 1.0}),
+                               "solver": sc.solver.model_copy(update={"rtol": rtol, "atol": rtol * 1e-2})})
+    _warm(sc, "taylor", "splitting", "rk4")
+    auto = rotlab.simulate(sc)
+    ref = rotlab.simulate(sc.model_copy(update={"solver": sc.solver.model_copy(update={"method": "dop853", "rtol": 1e-14, "atol": 1e-16})}))
+    assert auto.stats.method != "exact"
+    assert _error(auto, ref) <= 10 * rtol
+
+
+def test_auto_choice_is_cached_by_its_inputs_and_reported():
+    sc = rotlab.load(CONFIGS / "general.toml")
+    _warm(sc, "taylor", "rk4")
+    scene = build_scene(sc)
+    t = sc.time.sample_times()
+    first = choose_method(scene, "auto", Settings(rtol=1e-10), t)
+    again = choose_method(build_scene(sc), "auto", Settings(rtol=1e-10), t)
+    assert first[1] is again[1]  # the same reason object: a new scene of the same numbers hits the cache
+    other = choose_method(scene, "auto", Settings(rtol=1e-6), t)
+    assert other[1] is not first[1] and other[2].rtol == pytest.approx(1e-7)
+    assert first[0].name == "taylor" and "non-conservative" in first[1]
+    assert first[2].rtol == pytest.approx(1e-11)  # taylor's local tolerance is rtol / 10
+
+
+def test_auto_respects_a_given_step_and_order():
+    sc = rotlab.load(CONFIGS / "euler.toml", duration=1.0)
+    stepped = sc.model_copy(update={"solver": sc.solver.model_copy(update={"step": 1e-3})})
+    assert rotlab.simulate(stepped).stats.method == "dmv"
+    ordered = sc.model_copy(update={"solver": sc.solver.model_copy(update={"order": 6})})
+    traj = rotlab.simulate(ordered)
+    assert traj.stats.details["order"] == 6
+
+
+def test_cost_model_prefers_few_samples_for_exact_and_many_steps_for_dmv():
+    """The model itself: exact's cost grows with the samples only, a stepper's with the span."""
+    sc = rotlab.load(CONFIGS / "euler.toml")
+    scene = build_scene(sc)
+    short_dense = work_of(scene, np.linspace(0.0, 20.0, 2001))
+    long_sparse = work_of(scene, np.linspace(0.0, 2e4, 11))
+    by_method = lambda work: {e.method: e for e in candidates(scene, Settings(rtol=1e-10), work)}  # noqa: E731
+    dense, sparse = by_method(short_dense), by_method(long_sparse)
+    assert dense["exact"].seconds > dense["taylor"].seconds
+    assert sparse["exact"].seconds < sparse["taylor"].seconds and sparse["exact"].seconds < sparse["dmv"].seconds
+    assert cost.separatrix((1.0, 2.0, 3.0), (1.0, 0.0, 1.0), 10.0, 1.0)[0] < 1e-13  # far from the separatrix: no floor
+
+
+def test_a_single_cli_run_of_a_lagrange_top_uses_exact(tmp_path):
+    """In a fresh process no numba kernel has run: taylor would pay numba's first use (~0.3–1 s),
+    exact takes milliseconds and needs no kernel, so a one-off `rotlab run` picks exact."""
+    done = subprocess.run([sys.executable, "-m", "rotlab", "run", str(CONFIGS / "lagrange.toml"), "-o", str(tmp_path / "l.rrd")],
+                          capture_output=True, text=True, check=True)
+    assert "method   exact (auto: exact" in done.stdout and "loading their numba kernel" in done.stdout
+
+
+def test_a_loop_of_runs_moves_to_a_stepper_once_loading_it_pays(tmp_path):
+    """In a fresh process, repeated runs of one free body (euler.toml, 2001 samples: exact ~2 ms
+    a run, taylor ~0.15 ms) start with exact and switch to a stepping method once the kernel's
+    first use (0.3–1 s), shared among the runs made so far (the choice is revisited at 2^k runs:
+    by run 1024 the share is ≤ 1 ms), costs less than exact's extra time."""
+    code = (
+        "import rotlab\n"
+        f"sc = rotlab.load({str(CONFIGS / 'euler.toml')!r})\n"
+        "methods = [rotlab.simulate(sc).stats.method for _ in range(1100)]\n"
+        "print(methods[0], methods[-1])\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
+    first, last = done.stdout.split()
+    assert first == "exact" and last != "exact"

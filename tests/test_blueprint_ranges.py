@@ -1,0 +1,38 @@
+"""A streamed run's plot ranges come from the whole run, not from its first chunk (the layout is
+sent again, as the default, when the run ends: a torque peak late in the run stays on the plot)."""
+
+from __future__ import annotations
+
+import numpy as np
+from rerun.chunk import RrdReader
+
+from rotlab.recording import layout
+from rotlab.recording.reader import read_series
+from tests.conftest import CONFIGS
+
+
+def _ranges(path, view_name: str) -> list[tuple[float, float]]:
+    """The y range of the view named ``view_name`` in every blueprint of the file."""
+    reader = RrdReader(str(path))
+    out = []
+    for store in reader.blueprints():
+        names, ranges = {}, {}
+        for chunk in reader.stream(store=store).to_chunks():
+            batch, entity = chunk.to_record_batch(), str(chunk.entity_path)
+            if "ViewBlueprint:display_name" in batch.schema.names:
+                names[entity] = batch.column("ViewBlueprint:display_name").to_pylist()[-1][0]
+            if "ScalarAxis:range" in batch.schema.names:
+                ranges[entity.rsplit("/ScalarAxis", 1)[0]] = batch.column("ScalarAxis:range").to_pylist()[-1][0]
+        out += [tuple(ranges[view]) for view, name in names.items() if name == view_name and view in ranges]
+    return out
+
+
+def test_plot_ranges_cover_the_whole_streamed_run(cli, tmp_path):
+    # 200,001 samples: several chunks; general.toml's largest torque comes after the first one
+    result = cli("run", str(CONFIGS / "general.toml"), "-q", "-o", "g.rrd", "--set", "time.sample_rate=20000")
+    assert result.exit_code == 0, result.output
+    _, torque = read_series(tmp_path / "g.rrd", layout.LOAD_TORQUE_BODY)
+    low, high = float(np.min(torque)), float(np.max(torque))
+    ranges = _ranges(tmp_path / "g.rrd", "M of the loads, body frame (N·m)")
+    assert ranges, "no y range for the body-frame torque plot"
+    assert any(lo <= low and hi >= high for lo, hi in ranges), (low, high, ranges)

@@ -1,0 +1,357 @@
+"""The streamed `rotlab run`: the file equals the whole run sample for sample, memory is held
+per chunk, and faults (full disk, hostile paths, wall-clock limit, Ctrl-C) lose nothing."""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rotlab
+from rotlab import api
+from rotlab.errors import RunFailure
+from rotlab.methods import stepping
+from rotlab.recording import layout, sink as sink_module, stream as stream_module
+from rotlab.recording.reader import read_series
+from rotlab.recording.sink import RecordingSink, verify_rrd
+from rotlab.scene.scene import build_scene
+from tests.conftest import CONFIGS, VALID_BODY
+
+ROTLAB = [sys.executable, "-m", "rotlab"]
+
+
+def _streamed(scenario, path: Path, monkeypatch, window: int = 97, flush_rows: int = 61):
+    """Run ``scenario`` streamed to ``path`` with tiny windows and chunks (many of each)."""
+    monkeypatch.setattr(stepping, "WINDOW", window)
+    monkeypatch.setattr(stream_module, "FLUSH_ROWS", flush_rows)
+    run, _, final = api.record(build_scene(scenario), RecordingSink(path))
+    assert final == path
+    return run
+
+
+@pytest.mark.parametrize("config, method, exact_match", [
+    ("lagrange.toml", "exact", True),  # evaluated per window at the same times: identical
+    ("euler.toml", "rk4", True),  # fixed steps: windows change nothing
+    ("general.toml", "taylor", False),  # steps end at window ends: equal to the tolerance
+    ("general.toml", "dop853", False),
+])
+def test_streamed_file_equals_the_whole_run(config, method, exact_match, tmp_path, monkeypatch):
+    scenario = rotlab.load(CONFIGS / config, method=method, duration=3.0)
+    scenario = scenario.model_copy(update={"output": scenario.output.model_copy(update={"euler_angles": True})})
+    whole = rotlab.simulate(scenario)
+    run = _streamed(scenario, tmp_path / "s.rrd", monkeypatch)
+    assert run.samples == whole.t.shape[0] and run.stats.failure is None
+    t, q = read_series(tmp_path / "s.rrd", layout.QUATERNION)
+    np.testing.assert_array_equal(t, np.round(whole.t * 1e9) * 1e-9)
+    _, omega = read_series(tmp_path / "s.rrd", layout.OMEGA)
+    _, angles = read_series(tmp_path / "s.rrd", layout.EULER_ANGLES)  # unwrapped across chunks
+    if exact_match:
+        np.testing.assert_array_equal(q, whole.quaternion)
+        np.testing.assert_array_equal(omega, whole.omega)
+    else:  # rtol = 1e-10 runs; the bound is 100 × rtol on unit-scale quantities
+        assert np.max(np.abs(q - whole.quaternion)) < 1e-8
+        assert np.max(np.abs(omega - whole.omega)) < 1e-8 * max(1.0, np.max(np.abs(whole.omega)))
+    assert np.max(np.abs(angles - whole.euler_angles)) < 1e-8
+    for name, drift in whole.invariants.items():  # measured from the run's first sample, not the chunk's
+        _, streamed = read_series(tmp_path / "s.rrd", f"{layout.INVARIANTS}/{name}")
+        np.testing.assert_allclose(streamed[:, 0], drift, rtol=0, atol=1e-12 if exact_match else 1e-9)
+        assert run.drift[name] == pytest.approx(whole.max_drift()[name], rel=1e-6, abs=1e-13 if exact_match else 1e-9)
+
+
+def test_visual_series_are_thinned_and_the_state_is_not(tmp_path, monkeypatch):
+    scenario = rotlab.load(CONFIGS / "lagrange.toml", duration=10.0)  # 2001 samples
+    scenario = scenario.model_copy(update={"output": scenario.output.model_copy(update={"visual_samples": 100})})
+    _streamed(scenario, tmp_path / "s.rrd", monkeypatch)
+    t_state, _ = read_series(tmp_path / "s.rrd", layout.QUATERNION)
+    t_pose, _ = read_series(tmp_path / "s.rrd", layout.BODY, "Transform3D:quaternion")
+    t_log, _ = read_series(tmp_path / "s.rrd", f"{layout.INVARIANTS_LOG}/energy")
+    stride = -(-2001 // 100)
+    assert t_state.shape[0] == 2001
+    np.testing.assert_array_equal(t_pose, t_state[::stride])  # every stride-th sample, across chunks
+    np.testing.assert_array_equal(t_log, t_state[::stride])
+
+
+def test_sample_times_equal_linspace():
+    for start, end, n in ((0.0, 49999.0, 9_999_801), (0.3, 10.7, 2001), (1e5, 1e5 + 1.0, 3)):
+        lazy, full = stepping.SampleTimes(start, end, n), np.linspace(start, end, n)
+        np.testing.assert_array_equal(lazy[0:n], full)
+        np.testing.assert_array_equal(lazy[7 : n - 2], full[7 : n - 2])
+        assert lazy[-1] == full[-1] and lazy[1] == full[1] and lazy.shape == full.shape
+
+
+# --- the sink: checked writes, verification, atomic rename -------------------------------------
+
+def test_write_error_is_a_run_failure_and_keeps_the_old_file(tmp_path, monkeypatch):
+    """A fault-injecting os.write (ENOSPC after 200 kB) in the pump: the run fails with a clear
+    line, the old recording stays, no temporary file is left."""
+    target = tmp_path / "out.rrd"
+    target.write_bytes(b"a good recording")
+    real_write, written = os.write, [0]
+
+    def full_disk(fd, data):
+        if written[0] > 200_000:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        written[0] += len(data)
+        return real_write(fd, data)
+
+    monkeypatch.setattr(sink_module.os, "write", full_disk)
+    with pytest.raises(RunFailure, match="could not write the recording .*No space left on device"):
+        _streamed(rotlab.load(CONFIGS / "euler.toml", duration=100.0), target, monkeypatch, window=4096, flush_rows=2048)
+    assert target.read_bytes() == b"a good recording"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.rrd"]
+
+
+@pytest.mark.parametrize("damage", ["empty", "truncated", "no footer"])
+def test_verification_refuses_incomplete_files(damage, tmp_path):
+    good = tmp_path / "good.rrd"
+    from rotlab.recording.writer import write_recording
+
+    write_recording(rotlab.simulate(rotlab.load(CONFIGS / "euler.toml", duration=1.0)), good)
+    verify_rrd(good)
+    data = good.read_bytes()
+    bad = tmp_path / "bad.rrd"
+    bad.write_bytes({"empty": b"", "truncated": data[: len(data) // 2], "no footer": data[:-32]}[damage])
+    with pytest.raises(RunFailure, match="incomplete|does not read back"):
+        verify_rrd(bad)
+
+
+@pytest.fixture
+def full_tmpfs(tmp_path):
+    """A real 1 MB tmpfs (root only; skipped where mounting is refused)."""
+    mount = tmp_path / "small"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mount)], capture_output=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
+    yield mount
+    subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+@pytest.mark.parametrize("duration", ["19.2", "40", "2000"])
+def test_full_disk_on_a_real_tmpfs(full_tmpfs, duration, tmp_path):
+    good = full_tmpfs / "out.rrd"
+    subprocess.run(ROTLAB + ["run", str(CONFIGS / "euler.toml"), "-o", str(good), "--duration", "1", "-q"], check=True, timeout=120)
+    before = good.read_bytes()
+    done = subprocess.run(ROTLAB + ["run", str(CONFIGS / "euler.toml"), "-o", str(good), "--duration", duration],
+                          capture_output=True, text=True, timeout=120)  # never hangs
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.strip().splitlines() == [done.stderr.strip()] and "No space left on device" in done.stderr
+    assert good.read_bytes() == before
+    assert sorted(p.name for p in full_tmpfs.iterdir()) == ["out.rrd"]
+
+
+# --- hostile output paths: refused before any work, exit 2, one line ---------------------------
+
+def _run_cli(*args, cwd: Path, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run([*ROTLAB, "run", *args], capture_output=True, cwd=cwd, timeout=timeout)
+
+
+def test_output_that_is_the_config_is_refused(tmp_path):
+    config = tmp_path / "c.toml"
+    config.write_bytes((CONFIGS / "euler.toml").read_bytes())
+    done = _run_cli(str(config), "-o", str(config), cwd=tmp_path)
+    assert done.returncode == 2 and b"is the input" in done.stderr and done.stderr.count(b"\n") == 1
+    assert config.read_bytes() == (CONFIGS / "euler.toml").read_bytes()
+
+
+def test_special_files_are_never_replaced(tmp_path):
+    fifo = tmp_path / "pipe.rrd"
+    os.mkfifo(fifo)
+    for target in (fifo, Path("/dev/null")):
+        done = _run_cli(str(CONFIGS / "euler.toml"), "-o", str(target), cwd=tmp_path)
+        assert done.returncode == 2 and b"not a regular file" in done.stderr and done.stderr.count(b"\n") == 1
+    assert fifo.is_fifo() and Path("/dev/null").is_char_device()
+
+
+def test_long_and_non_utf8_names_are_refused(tmp_path):
+    for name in ("x" * 300 + ".rrd", b"caf\xe9.rrd"):
+        args = [*ROTLAB, "run", str(CONFIGS / "euler.toml"), "-o"]
+        done = subprocess.run([os.fsencode(a) for a in args] + [os.fsencode(name)], capture_output=True, cwd=tmp_path, timeout=120)
+        assert done.returncode == 2, done.stderr
+        assert done.stderr.count(b"\n") == 1 and b"Traceback" not in done.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_size_estimate_asks_before_a_large_run(tmp_path):
+    done = _run_cli(str(CONFIGS / "euler.toml"), "-o", "e.rrd", "--duration", "50", "--max-megabytes", "0.5", cwd=tmp_path)
+    assert done.returncode == 2 and b"--max-megabytes" in done.stderr and not (tmp_path / "e.rrd").exists()
+    done = _run_cli(str(CONFIGS / "euler.toml"), "-o", "e.rrd", "--duration", "50", "--max-megabytes", "5", "-q", cwd=tmp_path)
+    assert done.returncode == 0 and (tmp_path / "e.rrd").exists()
+
+
+# --- stopping: wall-clock limit, Ctrl-C, samples longer than a chunk ---------------------------
+
+def _long_rk4(tmp_path: Path, step: str, rate: str = "1") -> Path:
+    config = tmp_path / "long.toml"
+    config.write_text(VALID_BODY + f"[initial]\nomega = [0.1, 2.0, 0.1]\n[time]\nend = 100000.0\nsample_rate = {rate}\n"
+                      f'[solver]\nmethod = "rk4"\nstep = {step}\nmax_steps = 100000000000000\n')
+    return config
+
+
+def test_timeout_stops_inside_a_long_sample_and_keeps_the_valid_samples(tmp_path):
+    """step 1e-7 s with one sample per second: 10⁷ steps per sample, far more than one chunk."""
+    config = _long_rk4(tmp_path, "1e-7")
+    started = time.monotonic()
+    done = _run_cli(str(config), "-o", "long.rrd", "--timeout", "4", cwd=tmp_path)
+    assert time.monotonic() - started < 60
+    err = done.stderr.decode()
+    assert done.returncode == 1 and "wall-clock limit of 4 s" in err and len(err.strip().splitlines()) == 1
+    partial = tmp_path / "long.partial.rrd"
+    verify_rrd(partial)
+    assert not (tmp_path / "long.rrd").exists()
+
+
+@pytest.mark.parametrize("config, extra", [
+    ("euler.toml", ["--duration", "40000"]),  # exact: evaluation, conversion and writing interleaved
+    (None, []),  # rk4 with long samples
+])
+def test_ctrl_c_keeps_the_valid_samples(config, extra, tmp_path):
+    path = CONFIGS / config if config else _long_rk4(tmp_path, "1e-6")
+    proc = subprocess.Popen([*ROTLAB, "run", str(path), "-o", "out.rrd", "--max-megabytes", "10000", *extra],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    partial = tmp_path / "out.partial.rrd"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not any(p.name.endswith(".tmp") and p.stat().st_size > 100_000 for p in tmp_path.iterdir()):
+        time.sleep(0.2)  # until samples are being written
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    last = err.strip().splitlines()[-1]  # before it: at most the progress lines of a non-terminal
+    assert last.startswith("rotlab: interrupted:") and "valid samples are in" in last and "Traceback" not in err
+    verify_rrd(partial)
+    t, q = read_series(partial, layout.QUATERNION)
+    assert t.shape[0] > 1 and np.all(np.isfinite(q))
+    assert not (tmp_path / "out.rrd").exists() and not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+
+
+# --- live viewing: a real headless Rerun receives the same recording as the file ---------------
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_connected_viewer_receives_the_file_sample_for_sample(tmp_path):
+    """`rerun --port P --save received.rrd` is a headless Rerun that takes a live stream; a run
+    with -o and --connect sends the same samples to both."""
+    from tests.test_robustness import _rerun
+
+    port = _free_port()
+    received = tmp_path / "received.rrd"
+    viewer = subprocess.Popen([_rerun(), "--port", str(port), "--save", str(received)], cwd=tmp_path,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not received.exists():
+            time.sleep(0.2)
+        done = _run_cli(str(CONFIGS / "general.toml"), "-o", "file.rrd", "--connect", "--url",
+                        f"rerun+http://127.0.0.1:{port}/proxy", "--duration", "30", "-q", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        time.sleep(2.0)  # the viewer writes what it received
+    finally:
+        os.killpg(viewer.pid, signal.SIGKILL)
+        viewer.wait(timeout=30)
+    entities = [(layout.QUATERNION, "Scalars:scalars"), (layout.OMEGA, "Scalars:scalars"), (layout.ENERGY, "Scalars:scalars"),
+                (f"{layout.INVARIANTS}/energy", "Scalars:scalars"), (layout.BODY, "Transform3D:quaternion")]
+    for entity, component in entities:
+        t_file, v_file = read_series(tmp_path / "file.rrd", entity, component)
+        t_live, v_live = read_series(received, entity, component)
+        assert t_file.shape[0] > 1000
+        np.testing.assert_array_equal(t_live, t_file)
+        np.testing.assert_array_equal(v_live, v_file)
+
+
+def test_serve_web_serves_the_viewer_and_finishes_the_file_on_ctrl_c(tmp_path):
+    import urllib.request
+
+    grpc, web = _free_port(), _free_port()
+    proc = subprocess.Popen([*ROTLAB, "run", str(CONFIGS / "lagrange.toml"), "-o", "web.rrd", "--serve-web", "--port", str(grpc),
+                             "--web-port", str(web)], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline, status = time.monotonic() + 60, None
+        while time.monotonic() < deadline and status != 200:
+            try:
+                status = urllib.request.urlopen(f"http://127.0.0.1:{web}/", timeout=2).status
+            except OSError:
+                time.sleep(0.3)
+        assert status == 200
+        time.sleep(1.0)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert f"http://127.0.0.1:{web}/?url=rerun+http://127.0.0.1:{grpc}/proxy" in err
+    verify_rrd(tmp_path / "web.rrd")
+    assert read_series(tmp_path / "web.rrd", layout.QUATERNION)[0].shape[0] == 2001
+
+
+def test_a_killed_viewer_does_not_stop_or_stall_the_file(tmp_path):
+    """The viewer dies mid-stream: the run goes on, ends in time and the file is complete."""
+    from tests.test_robustness import _rerun
+
+    port = _free_port()
+    viewer = subprocess.Popen([_rerun(), "--port", str(port), "--save", str(tmp_path / "received.rrd")], cwd=tmp_path,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    time.sleep(3.0)
+    proc = subprocess.Popen([*ROTLAB, "run", str(CONFIGS / "euler.toml"), "-o", "file.rrd", "--connect", "--url",
+                             f"rerun+http://127.0.0.1:{port}/proxy", "--duration", "20000", "-q"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(4.0)
+    os.killpg(viewer.pid, signal.SIGKILL)
+    viewer.wait(timeout=30)
+    out, err = proc.communicate(timeout=180)
+    assert proc.returncode == 0, err
+    t, _ = read_series(tmp_path / "file.rrd", layout.QUATERNION)
+    assert t.shape[0] == 2_000_001
+
+
+def test_progress_is_a_transient_bar_on_a_terminal_and_lines_elsewhere(monkeypatch):
+    import io
+
+    from rotlab import progress as progress_module
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    monkeypatch.setattr(progress_module, "LINE_EVERY", 0.0)
+    log = io.StringIO()
+    bar = progress_module.StreamProgress("run.toml", stream=log)
+    bar(500, 1000)
+    bar.written(400, 1000)
+    bar.close()
+    assert "run.toml: 400 of 1,000 samples written (40%; integrated 500)" in log.getvalue()
+    screen = Terminal()
+    bar = progress_module.StreamProgress("run.toml", stream=screen)
+    bar.started -= 1.0  # past the start-up delay
+    bar(500, 1000)
+    bar.written(400, 1000)
+    assert bar._bar is not None  # a rich bar, drawn on the terminal
+    bar.close()
+    assert "samples written" not in screen.getvalue()  # no log lines on a terminal
+
+
+def test_ctrl_c_before_the_first_sample_is_sent_writes_no_file(tmp_path, monkeypatch):
+    """Ctrl-C inside the first conversion (the fault campaign's SIGINT at ~0.9 s): nothing was sent,
+    so no partial file (an empty one used to fail verification: exit 1), no temporary file, and an
+    existing recording untouched."""
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(stream_module, "build_chunk", interrupted)
+    target = tmp_path / "out.rrd"
+    target.write_bytes(b"an earlier recording")
+    scenario = rotlab.load(CONFIGS / "euler.toml", method="rk4", duration=0.1)
+    run, _, final = api.record(build_scene(scenario), RecordingSink(target))
+    assert final is None and run.samples == 0 and run.stats.interrupted
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.rrd"] and target.read_bytes() == b"an earlier recording"
