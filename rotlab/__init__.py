@@ -4,11 +4,12 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["InputError", "Interrupted", "RunFailure", "Scenario", "Trajectory", "__version__", "load", "parse_scenario", "simulate"]
+__all__ = ["InputError", "Interrupted", "RunFailure", "Scenario", "Trajectory", "__version__", "load", "parse_scenario", "save", "simulate"]
 
 _LAZY = {
     "load": "rotlab.api",
     "simulate": "rotlab.api",
+    "save": "rotlab.api",
     "parse_scenario": "rotlab.config.loader",
     "Scenario": "rotlab.config.models",
     "Trajectory": "rotlab.trajectory",

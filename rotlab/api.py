@@ -72,6 +72,14 @@ def simulate(
     return traj
 
 
+def save(path: str | Path, traj: Trajectory) -> Path:
+    """Write ``traj`` as the Rerun recording ``rotlab run`` writes (numpy's argument order,
+    like ``np.save``): a temporary file, verified and renamed when complete.  Returns the path."""
+    from rotlab.recording.writer import write_recording
+
+    return write_recording(traj, path)
+
+
 def run_scene(scene: Scene, progress: ProgressCallback | None = None) -> Trajectory:
     """Run ``scene`` whole: every sample in memory (the Python API)."""
     chosen, reason, settings, t = _plan(scene)

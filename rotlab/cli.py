@@ -3,7 +3,6 @@ commands that need them, so ``rotlab --help`` stays fast."""
 
 from __future__ import annotations
 
-import signal
 import sys
 from pathlib import Path
 from typing import Annotated, Literal, Optional

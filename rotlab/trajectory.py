@@ -8,7 +8,6 @@ The invariants and their relative drift: ``rotlab.invariants`` (one table).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -67,12 +66,6 @@ class Trajectory:
         state = "ok" if self.ok else f"stopped: {self.stats.failure}"
         return (f"<Trajectory {self.scene.kind.replace('_', '-')} scene, {n:,} samples over {span}, "
                 f"method {self.stats.method}, max drift {drift or 'none'}; {state}>")
-
-    def save(self, path: str | Path) -> Path:
-        """Write the same Rerun recording as ``rotlab run`` (temporary file, renamed when complete)."""
-        from rotlab.recording.writer import write_recording
-
-        return write_recording(self, path)
 
     def columns(self) -> dict[str, tuple[np.ndarray, str]]:
         """Every series as a named column: name → (values, unit).  Vectors name their frame."""

@@ -60,7 +60,7 @@ def test_a_failed_run_raises_with_the_valid_part_or_returns_it_on_request():
 
 def test_save_writes_the_same_recording_as_the_cli(tmp_path):
     traj = rotlab.simulate(CONFIGS / "lagrange.toml", duration=0.5)
-    path = traj.save(tmp_path / "top.rrd")
+    path = rotlab.save(tmp_path / "top.rrd", traj)
     t, omega = read_series(path, layout.OMEGA)
     assert np.max(np.abs(t - traj.t)) <= 1e-9 and np.array_equal(omega, traj.omega)  # ns time axis, float64 ω
 
