@@ -19,6 +19,23 @@ if os.environ.get("CI"):
     settings.load_profile("ci")
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def pytest_report_header(config) -> str:
+    import rotlab
+
+    return f"rotlab {rotlab.__version__} imported from {Path(rotlab.__file__).resolve().parent}"
+
+
+def pytest_configure(config) -> None:
+    """``ROTLAB_TESTS_INSTALLED=1`` (set by .ci/run): the tests must see the installed wheel, not
+    the checkout's rotlab/ folder (which would hide a file missing from the wheel)."""
+    if os.environ.get("ROTLAB_TESTS_INSTALLED") == "1":
+        import rotlab
+
+        package = Path(rotlab.__file__).resolve().parent
+        if "site-packages" not in package.parts:
+            raise pytest.UsageError(f"ROTLAB_TESTS_INSTALLED=1 but rotlab was imported from {package}; run `pytest`, not `python -m pytest`")
 # The shipped scenarios as the imported rotlab sees them (its package data): the tests also run
 # against an installed wheel from a directory outside the source tree (.ci/run).
 CONFIGS = shipped_configs()
