@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Mapping
 
+from rotlab import interrupts
 from rotlab.config import load_scenario, parse_scenario
 from rotlab.config.models import Scenario
 from rotlab.errors import Interrupted, RunFailure
@@ -119,10 +120,10 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
     try:
         summary = stream.finish()
     except KeyboardInterrupt:  # Ctrl-C while the last chunk and the static part were sent
-        stats.failure, stats.interrupted = f"interrupted by the user at t = {stream.last_time:.9g} s", True
+        stats.failure, stats.interrupted = f"{interrupts.stop_reason()} at t = {stream.last_time:.9g} s", True
         summary = stream.summary()
     if stats.interrupted or summary.samples < solution.valid:  # Ctrl-C, maybe inside the writer: say what was kept
-        stats.failure, stats.interrupted = f"interrupted by the user at t = {summary.end:.9g} s", True
+        stats.failure, stats.interrupted = f"{interrupts.stop_reason()} at t = {summary.end:.9g} s", True
     return summary, stream.seconds
 
 

@@ -3,6 +3,7 @@ commands that need them, so ``rotlab --help`` stays fast."""
 
 from __future__ import annotations
 
+import signal
 import sys
 from pathlib import Path
 from typing import Annotated, Literal, Optional
@@ -14,7 +15,7 @@ try:  # recent typer carries its own copy of click; earlier releases use the cli
 except ImportError:  # pragma: no cover
     from click import exceptions as click_errors  # type: ignore[no-redef]
 
-from rotlab import __version__
+from rotlab import __version__, interrupts
 from rotlab.bench.command import bench
 from rotlab.methods.names import METHOD_NAMES
 
@@ -121,8 +122,6 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
          max_megabytes: float | None = None, port: int = 9876, web_port: int = 9090) -> None:
     import time
 
-    from rotlab import interrupts
-
     with interrupts.deferred():  # Ctrl-C while numpy, scipy, numba and rerun load: raised after, not inside them
         from rotlab import api
         from rotlab.errors import Interrupted, RunFailure
@@ -199,7 +198,6 @@ def batch(
     """Run scenario suites in parallel; exit 1 if any scenario errs or breaks a [checks] bound
     (a scenario without [checks] is held to default bounds on its invariants)."""
     import os
-    import signal
 
     from rotlab.batch.reports import case_line, table, write_junit, write_markdown, write_summary
     from rotlab.batch.runner import collect_configs, run_batch
@@ -266,8 +264,6 @@ def sweep(
     retries: Annotated[int, typer.Option("--retries", min=0, help="Run a case again when its worker dies (default 0).")] = 0,
 ) -> None:
     """Run a parameter sweep; exit 1 if any case errs or breaks a [checks] bound."""
-    import signal
-
     from rotlab.errors import InputError, RunFailure
     from rotlab.outdir import prepare_outdir
     from rotlab.parallel import exit_after_stop
@@ -400,7 +396,7 @@ def schema() -> None:
 
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: every error is one line on stderr (usage errors too), exit codes
-    0 success, 1 run failure, 2 bad input, 130 interrupted."""
+    0 success, 1 run failure, 2 bad input, 130 interrupted (Ctrl-C), 143 stopped by SIGTERM."""
     try:
         code = app(args=argv, standalone_mode=False)
     except click_errors.NoArgsIsHelpError as exc:
@@ -417,4 +413,6 @@ def main(argv: list[str] | None = None) -> None:
         code = 130
     if code == 130 and not _reported:  # typer turns Ctrl-C into exit 130 without a word
         typer.echo("rotlab: interrupted", err=True)
+    if code == 130 and interrupts.stopped_by == signal.SIGTERM:
+        code = 128 + signal.SIGTERM  # 143, the shell's convention for a process ended by SIGTERM
     sys.exit(code if isinstance(code, int) else 0)

@@ -1,15 +1,19 @@
-"""Ctrl-C (SIGINT) that always ends a run cleanly.
+"""Ctrl-C (SIGINT) and SIGTERM that always end a run cleanly.
 
-Python turns SIGINT into a ``KeyboardInterrupt`` at whatever Python code runs next.  Two kinds of
-foreign code break that: a ctypes callback (llvmlite calls one while numba compiles or loads a kernel)
-swallows the exception ("Exception ignored on calling ctypes callback function") and the run goes on
-as if Ctrl-C had never been pressed; code that a C extension runs through ``PyRun_String`` (Cython
-modules do, on import) marks the interrupt as unhandled, so the interpreter ends by the signal itself
-(exit −2, after rotlab has printed its message and chosen exit 130) even though rotlab caught it.
+Python turns SIGINT into a ``KeyboardInterrupt`` at whatever Python code runs next; the rotlab
+executable makes SIGTERM (``kill``, ``timeout``, a cancelled CI job) do the same (``stop_on_sigterm``),
+so both keep the valid samples in ``NAME.partial.rrd``.  Two kinds of foreign code break that: a
+ctypes callback (llvmlite calls one while numba compiles or loads a kernel) swallows the exception
+("Exception ignored on calling ctypes callback function") and the run goes on as if nothing had
+happened; code that a C extension runs through ``PyRun_String`` (Cython modules do, on import) marks
+the interrupt as unhandled, so the interpreter ends by the signal itself (exit −2) even though
+rotlab caught it and chose exit 130.
 
-The executable therefore defers Ctrl-C over those two phases — imports and numba's compiler lock —
-and delivers it when they end: at the next Python line, where rotlab's handlers catch it.  Between
-phases, and inside compiled kernels (which return to Python every chunk), nothing changes.
+The executable therefore holds these signals over the two phases — imports and numba's compiler
+lock — and delivers them when the phase ends, at the next Python line, where rotlab's handlers catch
+them.  Between phases, and inside compiled kernels (which return to Python every chunk), nothing
+changes.  Only signals whose handler is Python code are held: a library user's SIGTERM (the
+default action) still ends the process at once.
 """
 
 from __future__ import annotations
@@ -17,63 +21,105 @@ from __future__ import annotations
 import contextlib
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+stopped_by: int | None = None  # the last stop signal the executable turned into KeyboardInterrupt
+
+
+def stop_on_sigterm() -> None:
+    """SIGTERM raises ``KeyboardInterrupt`` like Ctrl-C (the rotlab executable; remembered in
+    ``stopped_by`` for the exit code 143 and the wording)."""
+    signal.signal(signal.SIGTERM, _raise_stop)
+
+
+def _raise_stop(signum: int, frame: object) -> None:
+    global stopped_by
+    stopped_by = signum
+    raise KeyboardInterrupt
+
+
+def stop_reason() -> str:
+    """How the last stop is worded in a run's failure: "interrupted by the user" (Ctrl-C) or
+    "stopped by SIGTERM"."""
+    return "stopped by SIGTERM" if stopped_by == signal.SIGTERM else "interrupted by the user"
+
+
+def forget_handled_interrupt() -> None:
+    """Let the process exit with the code rotlab chose.  CPython marks a ``KeyboardInterrupt`` that
+    ends any code run from source text (``exec``/``eval`` of a string: dataclasses, namedtuple and
+    numba do it all the time) as unhandled, even when rotlab catches it higher up, and at exit then
+    kills the process by SIGINT (exit −2; seen in ~1 of 8 SIGTERMs 0.3 s into a run).  Running
+    source text once more clears that mark: CPython resets it before evaluating any."""
+    exec("pass")  # noqa: S102 — constant source; the point is the reset that precedes its evaluation
+
+
+def _hold(record: Callable[[int, object], None]) -> dict[int, object]:
+    """Install ``record`` for every stop signal that Python code handles; returns what it replaced."""
+    saved: dict[int, object] = {}
+    for signum in STOP_SIGNALS:
+        current = signal.getsignal(signum)
+        if callable(current):
+            saved[signum] = signal.signal(signum, record)
+    return saved
+
+
+def _restore(saved: dict[int, object]) -> None:
+    for signum, handler in saved.items():
+        signal.signal(signum, handler)  # type: ignore[arg-type]
 
 
 @contextlib.contextmanager
 def deferred(deliver: bool = True) -> Iterator[None]:
-    """Hold Ctrl-C inside the block; at its end raise ``KeyboardInterrupt`` if one came
-    (``deliver=False``: drop it — for finishing a file, when the run is already over).
-    Outside the main thread (where signals cannot be handled): no change."""
+    """Hold stop signals inside the block; at its end re-send the first that came, so the handler
+    in force raises ``KeyboardInterrupt`` there (``deliver=False``: drop it — for finishing a file,
+    when the run is already over).  Outside the main thread (where signals cannot be handled): no change."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     received: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
+    saved = _hold(lambda signum, frame: received.append(signum))
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        _restore(saved)
     if received and deliver:
-        raise KeyboardInterrupt
+        signal.raise_signal(received[0])
 
 
 class _CompilerLockShield:
-    """numba event listener: SIGINT held while the main thread holds numba's compiler lock
+    """numba event listener: stop signals held while the main thread holds numba's compiler lock
     (compiling, or loading a kernel from the on-disk cache), re-sent to the process when the
-    outermost hold ends, so the handler in force then (usually Python's) sees it."""
+    outermost hold ends, so the handler in force then (usually Python's) sees them."""
 
     def __init__(self) -> None:
         self.depth = 0
-        self.previous: object = None
-        self.received = False
+        self.saved: dict[int, object] = {}
+        self.received: list[int] = []
 
     def on_start(self, event: object) -> None:
         if threading.current_thread() is not threading.main_thread():
             return
         self.depth += 1
         if self.depth == 1:
-            self.received = False
-            self.previous = signal.signal(signal.SIGINT, self._hold)
+            self.received = []
+            self.saved = _hold(lambda signum, frame: self.received.append(signum))
 
     def on_end(self, event: object) -> None:
         if threading.current_thread() is not threading.main_thread() or self.depth == 0:
             return
         self.depth -= 1
         if self.depth == 0:
-            signal.signal(signal.SIGINT, self.previous)  # type: ignore[arg-type]
+            _restore(self.saved)
             if self.received:
-                signal.raise_signal(signal.SIGINT)
-
-    def _hold(self, signum: int, frame: object) -> None:
-        self.received = True
+                signal.raise_signal(self.received[0])
 
 
 _shield: _CompilerLockShield | None = None
 
 
 def shield_numba_compilation() -> None:
-    """From now on, Ctrl-C during a numba compilation or cache load is delivered after it
+    """From now on, a stop signal during a numba compilation or cache load is delivered after it
     (idempotent; the rotlab executable calls it, the library API does not touch signals)."""
     global _shield
     if _shield is not None:

@@ -84,8 +84,12 @@ class Batch:
         return [p for p in psutil.Process(self.proc.pid).children(recursive=True)]
 
     def busy_worker(self) -> psutil.Process:
-        """The worker running the slow case: the descendant with the most CPU time."""
-        return max(self.workers(), key=lambda p: p.cpu_times().user)
+        """The worker running the slow case: the descendant computing now (most CPU time over the
+        next second; total CPU time would pick a worker that spent longer compiling its cases)."""
+        workers = self.workers()
+        before = {p.pid: p.cpu_times().user for p in workers}
+        time.sleep(1.0)
+        return max(workers, key=lambda p: p.cpu_times().user - before[p.pid])
 
     def finish(self, limit: float = 60.0) -> tuple[int, str, str]:
         out, err = self.proc.communicate(timeout=limit)

@@ -208,11 +208,12 @@ def test_timeout_stops_inside_a_long_sample_and_keeps_the_valid_samples(tmp_path
     assert not (tmp_path / "long.rrd").exists()
 
 
-@pytest.mark.parametrize("config, extra", [
-    ("euler.toml", ["--duration", "40000"]),  # exact: evaluation, conversion and writing interleaved
-    (None, []),  # rk4 with long samples
+@pytest.mark.parametrize("config, extra, signum", [
+    ("euler.toml", ["--duration", "40000"], signal.SIGINT),  # exact: evaluation, conversion and writing interleaved
+    (None, [], signal.SIGINT),  # rk4 with long samples
+    (None, [], signal.SIGTERM),  # kill, timeout(1), a cancelled CI job: the same, exit 143
 ])
-def test_ctrl_c_keeps_the_valid_samples(config, extra, tmp_path):
+def test_ctrl_c_keeps_the_valid_samples(config, extra, signum, tmp_path):
     path = CONFIGS / config if config else _long_rk4(tmp_path, "1e-6")
     proc = subprocess.Popen([*ROTLAB, "run", str(path), "-o", "out.rrd", "--max-megabytes", "10000", *extra],
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -220,11 +221,12 @@ def test_ctrl_c_keeps_the_valid_samples(config, extra, tmp_path):
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not any(p.name.endswith(".tmp") and p.stat().st_size > 100_000 for p in tmp_path.iterdir()):
         time.sleep(0.2)  # until samples are being written
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signum)
     out, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
+    assert proc.returncode == 128 + signum, err
     last = err.strip().splitlines()[-1]  # before it: at most the progress lines of a non-terminal
     assert last.startswith("rotlab: interrupted:") and "valid samples are in" in last and "Traceback" not in err
+    assert ("stopped by SIGTERM at t =" if signum == signal.SIGTERM else "interrupted by the user at t =") in last
     verify_rrd(partial)
     t, q = read_series(partial, layout.QUATERNION)
     assert t.shape[0] > 1 and np.all(np.isfinite(q))
@@ -355,3 +357,27 @@ def test_ctrl_c_before_the_first_sample_is_sent_writes_no_file(tmp_path, monkeyp
     run, _, final = api.record(build_scene(scenario), RecordingSink(target))
     assert final is None and run.samples == 0 and run.stats.interrupted
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.rrd"] and target.read_bytes() == b"an earlier recording"
+
+
+def test_ctrl_c_while_a_chunk_is_written_keeps_that_chunk_whole(tmp_path, monkeypatch):
+    """A Ctrl-C that lands while a chunk is converted and written is held until the chunk is in the
+    sink, so the partial file holds exactly the samples the run reports (none lost mid-chunk)."""
+    from rotlab.recording.writer import RecordingWriter
+
+    original = RecordingWriter.write
+    calls = []
+
+    def write_then_interrupted(self, chunk, start):
+        calls.append(start)
+        if len(calls) == 2:
+            os.kill(os.getpid(), signal.SIGINT)  # arrives inside the second chunk's write
+        original(self, chunk, start)
+
+    monkeypatch.setattr(RecordingWriter, "write", write_then_interrupted)
+    monkeypatch.setattr(stepping, "WINDOW", 97)  # rows come in windows of 97 and are sent in chunks of ≥ 50
+    monkeypatch.setattr(stream_module, "FLUSH_ROWS", 50)
+    scenario = rotlab.load(CONFIGS / "euler.toml", method="rk4", duration=5.0)
+    run, _, final = api.record(build_scene(scenario), RecordingSink(tmp_path / "out.rrd"))
+    assert run.stats.interrupted and final == tmp_path / "out.partial.rrd"
+    t, q = read_series(final, layout.QUATERNION)
+    assert len(calls) == 2 and t.shape[0] == run.samples >= 100 and np.all(np.isfinite(q))

@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 
+from rotlab import interrupts
 from rotlab.recording.writer import RecordingWriter, Thinned
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import Reference, RunStats, RunSummary, build_chunk, reference_of
@@ -48,9 +49,14 @@ class ChunkStream:
             self.flush()
 
     def flush(self) -> None:
-        """Convert and send the pending rows."""
+        """Convert and send the pending rows, whole: Ctrl-C (or SIGTERM) is held while a chunk is
+        converted and written (tens of ms) and raised after it, so the file and ``written`` agree."""
         if not self.pending:
             return
+        with interrupts.deferred():
+            self._flush()
+
+    def _flush(self) -> None:
         started = time.perf_counter()
         self.flushed_at = time.monotonic()
         t, state = np.concatenate(self.pending_t), np.concatenate(self.pending_state)

@@ -2,7 +2,7 @@
 real command line, each in a process of its own, with every outcome classified.
 
 A run must end in one of the promised ways: exit 0 with a readable recording, or exit 1 (run
-stopped), 2 (bad input) or 130 (interrupted) with exactly one line on stderr and no traceback;
+stopped), 2 (bad input), 130 (Ctrl-C) or 143 (SIGTERM) with exactly one line on stderr and no traceback;
 within a time limit; leaving no temporary file, the input untouched and a pre-existing recording
 either intact or (exit 0 only) replaced by a complete one.  Inputs come from a seeded generator:
 the same seed gives the same campaign.
@@ -43,7 +43,8 @@ _ASSIGNMENT = re.compile(rb"^(\s*[A-Za-z_\"][^=\n]*=\s*)(.+)$", re.M)
 @dataclass
 class Attempt:
     """One hostile run: ``argv`` (after ``rotlab``) in a fresh directory holding ``files``;
-    ``prepare(dir)`` makes special files; ``interrupt_after`` sends SIGINT after that many s."""
+    ``prepare(dir)`` makes special files; ``interrupt_after`` sends ``stop_signal`` (SIGINT: Ctrl-C,
+    or SIGTERM: kill) after that many s."""
 
     category: str
     name: str
@@ -51,6 +52,7 @@ class Attempt:
     files: dict[str, bytes] = field(default_factory=dict)
     prepare: Callable[[Path], None] | None = None
     interrupt_after: float | None = None
+    stop_signal: int = signal.SIGINT
 
 
 @dataclass(frozen=True)
@@ -173,13 +175,14 @@ def options(rng: random.Random, count: int) -> Iterator[Attempt]:
 
 
 def signals(rng: random.Random, count: int) -> Iterator[Attempt]:
-    """Ctrl-C at a random moment of a run long enough to be caught anywhere: start-up, stepping,
-    building the trajectory or writing."""
+    """Ctrl-C or SIGTERM (alternately) at a random moment of a run long enough to be caught
+    anywhere: start-up, compiling, stepping, converting or writing."""
     config = shipped_configs()["general.toml"]
     for k in range(count):
         after = round(rng.uniform(0.2, 6.0), 2)
-        yield Attempt("signals", f"SIGINT after {after} s", ["run", "in.toml", "-o", "out.rrd", "-q", "--duration", "3000"],
-                      {"in.toml": config}, interrupt_after=after)
+        signum = (signal.SIGINT, signal.SIGTERM)[k % 2]
+        yield Attempt("signals", f"{signal.Signals(signum).name} after {after} s", ["run", "in.toml", "-o", "out.rrd", "-q", "--duration", "3000"],
+                      {"in.toml": config}, interrupt_after=after, stop_signal=signum)
 
 
 CATEGORIES: dict[str, Callable[[random.Random, int], Iterator[Attempt]]] = {
@@ -223,7 +226,7 @@ def _execute(attempt: Attempt, d: Path, time_limit: float) -> tuple[int | None, 
             try:
                 proc.wait(timeout=attempt.interrupt_after)
             except subprocess.TimeoutExpired:
-                proc.send_signal(signal.SIGINT)
+                proc.send_signal(attempt.stop_signal)
         _, err = proc.communicate(timeout=max(0.1, deadline - time.monotonic()))
         return proc.returncode, err.decode("utf-8", "replace")
     except subprocess.TimeoutExpired:
@@ -240,7 +243,7 @@ def _classify(attempt: Attempt, d: Path, before: set[str], inputs: dict[str, byt
         return verdict("hang", f"no exit within {TIME_LIMIT:g} s")
     if "Traceback" in err:
         return verdict("traceback", err.strip().splitlines()[-1] if err.strip() else "")
-    if code not in (0, 1, 2, 130):
+    if code not in (0, 1, 2, 130, 143):
         return verdict("bad exit code", f"exit {code}: {err.strip()[:160]}")
     lines = err.strip().splitlines()
     if code != 0 and not (len(lines) == 1 and lines[0].startswith("rotlab: ")):
