@@ -77,7 +77,7 @@ def entity_table(samples: int = 200_000) -> None:
     import rerun as rr
 
     import rotlab
-    from rotlab.recording import layout, writer
+    from rotlab.recording import layout, visuals, writer
 
     print("| config | entity | rate | columns | B per sample written |")
     print("|---|---|---|---:|---:|")
@@ -98,7 +98,7 @@ def entity_table(samples: int = 200_000) -> None:
 
         empty = encoded(lambda rec, index, rows: None)
         entries = [(entity, values, "Scalars") for entity, (values, _) in views.series.items()]
-        entries += [(layout.BODY, writer._xyzw(views.unit_q), "Transform3D"), (layout.AXIS_TIP, views.geometry.axis_tips, "Points3D"),
+        entries += [(layout.BODY, visuals.xyzw(views.unit_q), "Transform3D"), (layout.AXIS_TIP, views.geometry.axis_tips, "Points3D"),
                     (layout.OMEGA_ARROW, views.omega_space, "Arrows3D"), (layout.L_ARROW, traj.L_space, "Arrows3D")]
         for entity, values, kind in entries:
             column = {"Scalars": lambda v: rr.Scalars.columns(scalars=v), "Transform3D": lambda v: rr.Transform3D.columns(quaternion=v),
