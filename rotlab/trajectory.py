@@ -113,6 +113,17 @@ class Trajectory:
         return RunSummary(self.scene, self.stats, n, float(self.t[0]) if n else 0.0, float(self.t[-1]) if n else 0.0, self.max_drift())
 
 
+def concatenate(parts: list[Trajectory]) -> Trajectory:
+    """Consecutive pieces of one run (same scene and stats) as one ``Trajectory``."""
+    if len(parts) == 1:
+        return parts[0]
+    first = parts[0]
+    join = lambda name: None if getattr(first, name) is None else np.concatenate([getattr(p, name) for p in parts])  # noqa: E731
+    return Trajectory(first.scene, first.stats, join("t"), join("quaternion"), join("omega"), join("L_body"), join("L_space"),
+                      join("kinetic"), join("potential"), join("work"), join("total"),
+                      {name: np.concatenate([p.invariants[name] for p in parts]) for name in first.invariants}, join("euler_angles"))
+
+
 @dataclass
 class RunSummary:
     """What reports say about a run without holding its samples (a streamed run has none)."""
