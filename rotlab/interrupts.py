@@ -5,9 +5,9 @@ executable makes SIGTERM (``kill``, ``timeout``, a cancelled CI job) do the same
 so both keep the valid samples in ``NAME.partial.rrd``.  Two kinds of foreign code break that: a
 ctypes callback (llvmlite calls one while numba compiles or loads a kernel) swallows the exception
 ("Exception ignored on calling ctypes callback function") and the run goes on as if nothing had
-happened; code that a C extension runs through ``PyRun_String`` (Cython modules do, on import) marks
-the interrupt as unhandled, so the interpreter ends by the signal itself (exit −2) even though
-rotlab caught it and chose exit 130.
+happened; and an interrupt that ends code run from source text (``exec``/``eval`` of a string)
+is marked unhandled even when caught, so the interpreter ends by the signal itself (exit −2) after
+rotlab has chosen exit 130 (``forget_handled_interrupt``).
 
 The executable therefore holds these signals over the two phases — imports and numba's compiler
 lock — and delivers them when the phase ends, at the next Python line, where rotlab's handlers catch
