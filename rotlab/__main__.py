@@ -20,7 +20,7 @@ def entry() -> None:
     except KeyboardInterrupt:
         sys.stderr.write("rotlab: interrupted\n")
         interrupts.forget_handled_interrupt()
-        sys.exit(143 if interrupts.stopped_by == signal.SIGTERM else 130)
+        sys.exit(interrupts.exit_code())
     try:
         main()
     finally:

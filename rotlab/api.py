@@ -120,10 +120,10 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
     try:
         summary = stream.finish()
     except KeyboardInterrupt:  # Ctrl-C while the last chunk and the static part were sent
-        stats.failure, stats.interrupted = f"{interrupts.stop_reason()} at t = {stream.last_time:.9g} s", True
+        stats.failure, stats.interrupted = interrupts.stopped_at(stream.last_time), True
         summary = stream.summary()
     if stats.interrupted or summary.samples < solution.valid:  # Ctrl-C, maybe inside the writer: say what was kept
-        stats.failure, stats.interrupted = f"{interrupts.stop_reason()} at t = {summary.end:.9g} s", True
+        stats.failure, stats.interrupted = interrupts.stopped_at(summary.end), True
     return summary, stream.seconds
 
 

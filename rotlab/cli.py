@@ -413,6 +413,6 @@ def main(argv: list[str] | None = None) -> None:
         code = 130
     if code == 130 and not _reported:  # typer turns Ctrl-C into exit 130 without a word
         typer.echo("rotlab: interrupted", err=True)
-    if code == 130 and interrupts.stopped_by == signal.SIGTERM:
-        code = 128 + signal.SIGTERM  # 143, the shell's convention for a process ended by SIGTERM
+    if code == 130:
+        code = interrupts.exit_code()  # 143 when SIGTERM stopped it (the shell's convention)
     sys.exit(code if isinstance(code, int) else 0)

@@ -39,10 +39,16 @@ def _raise_stop(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
-def stop_reason() -> str:
-    """How the last stop is worded in a run's failure: "interrupted by the user" (Ctrl-C) or
-    "stopped by SIGTERM"."""
-    return "stopped by SIGTERM" if stopped_by == signal.SIGTERM else "interrupted by the user"
+def stopped_at(t: float) -> str:
+    """A run's failure when a stop signal ended it at time ``t``: "interrupted by the user" (Ctrl-C)
+    or "stopped by SIGTERM", "at t = … s"."""
+    reason = "stopped by SIGTERM" if stopped_by == signal.SIGTERM else "interrupted by the user"
+    return f"{reason} at t = {t:.9g} s"
+
+
+def exit_code() -> int:
+    """The executable's exit code after a stop: 128 + the signal (130 Ctrl-C, 143 SIGTERM)."""
+    return 128 + (stopped_by or signal.SIGINT)
 
 
 def forget_handled_interrupt() -> None:

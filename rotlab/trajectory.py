@@ -7,7 +7,8 @@ The invariants and their relative drift: ``rotlab.invariants`` (one table).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -103,10 +104,7 @@ class Trajectory:
 
     def take(self, rows: np.ndarray) -> Trajectory:
         """The samples ``rows`` (indices) of this trajectory."""
-        pick = lambda a: None if a is None else a[rows]  # noqa: E731
-        return Trajectory(self.scene, self.stats, self.t[rows], self.quaternion[rows], self.omega[rows], self.L_body[rows],
-                          self.L_space[rows], self.kinetic[rows], pick(self.potential), pick(self.work), self.total[rows],
-                          {name: v[rows] for name, v in self.invariants.items()}, pick(self.euler_angles))
+        return _per_series([self], lambda arrays: arrays[0][rows])
 
     def summary(self) -> RunSummary:
         n = self.t.shape[0]
@@ -115,13 +113,20 @@ class Trajectory:
 
 def concatenate(parts: list[Trajectory]) -> Trajectory:
     """Consecutive pieces of one run (same scene and stats) as one ``Trajectory``."""
-    if len(parts) == 1:
-        return parts[0]
+    return parts[0] if len(parts) == 1 else _per_series(parts, np.concatenate)
+
+
+# The per-sample arrays of a Trajectory (None where the scene has no such series), drifts apart.
+_SERIES = tuple(f.name for f in fields(Trajectory) if f.name not in ("scene", "stats", "invariants"))
+
+
+def _per_series(parts: list[Trajectory], combine: Callable[[list[np.ndarray]], np.ndarray]) -> Trajectory:
+    """A Trajectory of ``parts[0]``'s scene and stats whose every series (and drift) is
+    ``combine`` of that series in each of ``parts``."""
     first = parts[0]
-    join = lambda name: None if getattr(first, name) is None else np.concatenate([getattr(p, name) for p in parts])  # noqa: E731
-    return Trajectory(first.scene, first.stats, join("t"), join("quaternion"), join("omega"), join("L_body"), join("L_space"),
-                      join("kinetic"), join("potential"), join("work"), join("total"),
-                      {name: np.concatenate([p.invariants[name] for p in parts]) for name in first.invariants}, join("euler_angles"))
+    series = {name: None if getattr(first, name) is None else combine([getattr(p, name) for p in parts]) for name in _SERIES}
+    drifts = {name: combine([p.invariants[name] for p in parts]) for name in first.invariants}
+    return Trajectory(first.scene, first.stats, invariants=drifts, **series)
 
 
 @dataclass

@@ -133,7 +133,7 @@ def _to_body(q0: float, q1: float, q2: float, q3: float, x: float, y: float, z: 
 
 
 def _table(tt: list[float], tv: list[list[float]], t: float) -> tuple[float, float, float]:
-    """Piecewise-linear table value, zero outside [tt[0], tt[-1]) (``rotlab.core.dynamics.table_value``)."""
+    """Piecewise-linear table value, zero outside [tt[0], tt[-1]) (``rotlab.core.torques.table_value``)."""
     if t < tt[0] or t >= tt[-1]:
         return 0.0, 0.0, 0.0
     lo, hi = 0, len(tt) - 1

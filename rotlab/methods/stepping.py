@@ -160,7 +160,7 @@ def run_chunks(
                 out[0] = window[hi - base - 1]
                 base, hi = hi - 1, min(n, hi + WINDOW)
     except KeyboardInterrupt:
-        failure, interrupted = f"{interrupts.stop_reason()} at t = {t[i - 1]:.9g} s", True
+        failure, interrupted = interrupts.stopped_at(t[i - 1]), True
     state = out[: i - base] if streamed else out
     return Solution(t=t, state=state, valid=i, steps=steps, failure=failure, interrupted=interrupted)
 
@@ -193,7 +193,7 @@ def evaluate_in_windows(t: np.ndarray, evaluate: Callable[[np.ndarray], np.ndarr
                 state = state[:valid]
                 break
     except KeyboardInterrupt:
-        failure, interrupted = f"{interrupts.stop_reason()} at t = {t[max(i, 1) - 1]:.9g} s", True
+        failure, interrupted = interrupts.stopped_at(t[max(i, 1) - 1]), True
     if control.consumer is not None:
         state = state[max(0, state.shape[0] - WINDOW) :]
     return Solution(t=t, state=state, valid=i, failure=failure, interrupted=interrupted)

@@ -6,11 +6,12 @@ file, atomic rename, live viewers).
 holds only the current chunk.  The state and the invariants (``FULL_RATE``) are written at every
 sample; the derived and visual series (pose, arrows, axis tip, log drifts, Euler angles, L in
 space) at every ``stride``-th sample, collected until ``CHUNK_ROWS`` of them or ``VISUAL_SECONDS``
-have passed: every ``send_columns`` is one chunk in the file, and Rerun keeps an entry per chunk
-in memory until the footer (measured ~0.25–1.5 KB), so ~25 visual entities sent with every
-16,384-sample flush at stride 100 made 150,000 tiny chunks and ~200 MB of footer in a 10⁸-sample run.  The static part is written twice: at the start (so that
-a live viewer has the body and the layout at once) and at the end, from a thinned copy of the
-run (``Thinned``: at most 2·MAX_PATH_POINTS samples) for the paths and the run report.
+have passed: every ``send_columns`` is one chunk in the file, and Rerun holds memory per chunk
+until the end of the file, so ~25 visual entities sent with every 16,384-sample flush at stride
+100 (~150,000 tiny chunks) made a 10⁸-sample run peak 60 MB higher.  The static part is written
+twice: at the start (so that a live viewer has the body and the layout at once) and at the end,
+from a thinned copy of the run (``Thinned``: at most 2·MAX_PATH_POINTS samples) for the paths and
+the run report.
 """
 
 from __future__ import annotations
