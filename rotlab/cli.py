@@ -126,10 +126,12 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
         from rotlab import api
         from rotlab.errors import Interrupted, RunFailure
         from rotlab.progress import StreamProgress
+        from rotlab.recording.arrow import withhold_pandas
         from rotlab.recording.sink import LiveOptions, RecordingSink
         from rotlab.recording.writer import check_output_path, check_size, partial_path
         from rotlab.scene.scene import build_scene
         from rotlab.summary import summary_lines
+        withhold_pandas()  # pyarrow would import pandas (0.2 s, ~40 MB) to ask if our arrays are Series
     interrupts.shield_numba_compilation()
 
     started = time.perf_counter()

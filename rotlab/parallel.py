@@ -32,6 +32,7 @@ import importlib
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
 from collections import deque
@@ -278,6 +279,10 @@ def _serve(fn: Callable[..., Any], conn: Connection, preload: tuple[str, ...], p
     _die_with_parent(parent)
     for module in preload:
         importlib.import_module(module)
+    if "pyarrow" in sys.modules:  # it writes recordings, and holds no pandas objects (rotlab.recording.arrow)
+        from rotlab.recording.arrow import withhold_pandas
+
+        withhold_pandas()
     while True:
         try:
             item = conn.recv()

@@ -79,7 +79,7 @@ def test_visual_series_are_thinned_and_the_state_is_not(tmp_path, monkeypatch):
 
 
 def test_visual_samples_are_collected_into_few_chunks(tmp_path, monkeypatch):
-    """The visual series of a long run go out in chunks of up to CHUNK_ROWS samples, not one per
+    """The visual series of a long run go out in chunks of up to VISUAL_ROWS samples, not one per
     flush: Rerun keeps an entry per chunk in memory until the file's footer (a 10⁸-sample run held
     ~60 MB more when ~25 visual entities were sent with every flush).  Here ~21 flushes, and the
     visual samples (every 21st) arrive in one chunk per entity; the state in one per flush."""

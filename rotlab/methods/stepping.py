@@ -34,7 +34,7 @@ from rotlab.methods.base import ProgressCallback, Solution
 Chunk = Callable[[np.ndarray, np.ndarray, int, int], tuple[int, int, int]]
 
 CHUNK_STEPS = 1 << 18
-WINDOW = 1 << 16  # samples per window when streaming (8 doubles each: 4 MB)
+WINDOW = 1 << 14  # samples per window when streaming (8 doubles each: 1 MB)
 
 
 class RowConsumer(Protocol):

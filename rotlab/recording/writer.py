@@ -5,10 +5,11 @@ file, atomic rename, live viewers).
 ``RecordingWriter`` takes a run chunk by chunk (``write``) as it is produced, so a streamed run
 holds only the current chunk.  The state and the invariants (``FULL_RATE``) are written at every
 sample; the derived and visual series (pose, arrows, axis tip, log drifts, Euler angles, L in
-space) at every ``stride``-th sample, collected until ``CHUNK_ROWS`` of them or ``VISUAL_SECONDS``
+space) at every ``stride``-th sample, collected until ``VISUAL_ROWS`` of them or ``VISUAL_SECONDS``
 have passed: every ``send_columns`` is one chunk in the file, and Rerun holds memory per chunk
 until the end of the file, so ~25 visual entities sent with every 16,384-sample flush at stride
-100 (~150,000 tiny chunks) made a 10⁸-sample run peak 60 MB higher.  The static part is written
+100 (~150,000 tiny chunks) made a 10⁸-sample run peak 60 MB higher; 4,096 rows at a time keep
+their conversion's transient memory small (16,384 held ~25 MB more at the peak).  The static part is written
 twice: at the start (so that a live viewer has the body and the layout at once) and at the end,
 from a thinned copy of the run (``Thinned``: at most 2·MAX_PATH_POINTS samples) for the paths and
 the run report.
@@ -37,6 +38,7 @@ from rotlab.recording.sink import RecordingSink
 from rotlab.trajectory import RunSummary, Trajectory, concatenate
 
 CHUNK_ROWS = 16384  # rows per send_columns call: Rerun's cost per row is 4× lower than at 4096
+VISUAL_ROWS = 4096  # visual rows converted and sent together: their conversion (labels, geometry) holds ~1.5 kB a row
 VISUAL_SECONDS = 0.5  # collected visual rows are sent at least this often (a live viewer keeps up)
 LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
 FULL_RATE = (layout.QUATERNION, layout.OMEGA, layout.INVARIANTS + "/")  # every sample: the state and the drifts
@@ -171,15 +173,15 @@ class RecordingWriter:
             if picked.size:
                 self.visual.append(chunk if self.stride == 1 else chunk.take(picked))
                 self.visual_rows += picked.size
-            if self.visual_rows >= self.chunk_rows or time.monotonic() - self.visual_sent_at >= VISUAL_SECONDS:
+            if self.visual_rows >= min(self.chunk_rows, VISUAL_ROWS) or time.monotonic() - self.visual_sent_at >= VISUAL_SECONDS:
                 self._send_visual()
         self.sink.drain()
 
     def _send_visual(self) -> None:
-        """Send the collected visual samples (one chunk per entity per ``chunk_rows``)."""
+        """Send the collected visual samples (one chunk per entity per ``VISUAL_ROWS``)."""
         if self.visual:
             thin = concatenate(self.visual)
-            _write_visual(self.rec, thin, _views(thin, self.scales), self.chunk_rows)
+            _write_visual(self.rec, thin, _views(thin, self.scales), min(self.chunk_rows, VISUAL_ROWS))
         self.visual, self.visual_rows, self.visual_sent_at = [], 0, time.monotonic()
 
     def finish(self, summary: RunSummary, thinned: Trajectory | None) -> None:
