@@ -127,11 +127,11 @@ def run_chunks(
     streamed = control.consumer is not None
     out = np.empty((min(n, WINDOW + 1) if streamed else n, STATE_SIZE))
     out[0] = y
-    if streamed:
-        control.consumer.rows(0, t[:1], out[:1])
     base, hi = 0, min(n, WINDOW + 1) if streamed else n  # the window: global samples [base, hi), out row 0 = base
     i, steps, failure, interrupted = 1, 0, None, False
     try:
+        if streamed:  # the first row can flush (a kernel that took > FLUSH_SECONDS to load): Ctrl-C there too
+            control.consumer.rows(0, t[:1], out[:1])
         while i < n:
             budget = min(CHUNK_STEPS, max_steps - steps)
             if budget <= 0:
