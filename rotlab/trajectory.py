@@ -174,8 +174,13 @@ def build_chunk(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray,
 
 def reference_of(scene: Scene, state0: np.ndarray) -> Reference:
     """The ``Reference`` of a run that starts in ``state0`` (one row, principal frame)."""
-    chunk = _quantities(scene, state0[None, :])
-    unit_q, L_p, L_space, kinetic, potential, _, invariant_energy = chunk
+    return _reference(_quantities(scene, state0[None, :]))
+
+
+def _reference(quantities) -> Reference:
+    """The ``Reference`` from the first row of ``_quantities`` (row-wise operations: the same
+    numbers whether computed for that row alone or for a chunk that starts with it)."""
+    unit_q, L_p, L_space, kinetic, potential, _, invariant_energy = quantities
     v0 = abs(float(potential[0])) if potential is not None else 0.0
     h0 = float(invariant_energy[0])
     return Reference(L_p[0].copy(), L_space[0].copy(), float(np.linalg.norm(L_p[0])), h0, max(abs(h0), float(kinetic[0]) + v0))
@@ -195,7 +200,8 @@ def _quantities(scene: Scene, state: np.ndarray):
 def _build(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray, reference: Reference | None,
            euler_angles: bool, previous_angles: np.ndarray | None) -> Trajectory:
     q_p, w_p, work = state[:, 0:4], state[:, 4:7], state[:, 7]
-    unit_q, L_p, L_space, kinetic, potential, total, invariant_energy = _quantities(scene, state)
+    quantities = _quantities(scene, state)
+    unit_q, L_p, L_space, kinetic, potential, total, invariant_energy = quantities
 
     if scene.is_principal:
         q_user, w_user, L_user = q_p, w_p, L_p
@@ -204,7 +210,7 @@ def _build(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray, refe
         w_user, L_user = _rows_times(w_p, scene.axes.T), _rows_times(L_p, scene.axes.T)
 
     if reference is None and len(state):
-        reference = reference_of(scene, state[0])
+        reference = _reference(quantities)
     drift = _drifts(scene, q_p, L_p, L_space, invariant_energy, reference)
     return Trajectory(
         scene=scene,

@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit
 
 from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece
-from rotlab.core.quaternion import N_PRODUCTS, rotate_quadratic
+from rotlab.core.quaternion import N_PRODUCTS, cross_array, rotate_quadratic
 from rotlab.core.torques import load_series, nonconservative_series, series_workspace, switch_step
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
@@ -42,16 +42,16 @@ def default_order(rtol: float) -> int:
 
 
 def force_map(forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(c₀, T) with Σ_k p_k × Rᵀ F_k = c₀ + T P for constant space forces (rows [p, F])."""
+    """(c₀, T) with Σ_k p_k × Rᵀ F_k = c₀ + T P for constant space forces (rows [p, F]):
+    column m of T is p × L(e_m, F), L linear in the products P (``rotate_quadratic``)."""
     c0 = np.zeros(3)
     T = np.zeros((3, N_PRODUCTS))
+    units = np.eye(N_PRODUCTS).ravel()
     for row in forces:
         arm, force = row[:3], row[3:]
-        c0 += np.cross(arm, force)
-        for m in range(N_PRODUCTS):
-            unit = np.zeros(N_PRODUCTS)
-            unit[m] = 1.0
-            T[:, m] += np.cross(arm, np.array(rotate_quadratic(unit, 0, force[0], force[1], force[2])))
+        c0 += cross_array(arm, force)
+        quadratic = np.array([rotate_quadratic(units, N_PRODUCTS * m, force[0], force[1], force[2]) for m in range(N_PRODUCTS)])
+        T += cross_array(arm, quadratic).T
     return c0, T
 
 
