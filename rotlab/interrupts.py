@@ -6,8 +6,9 @@ so both keep the valid samples in ``NAME.partial.rrd``.  Two kinds of foreign co
 ctypes callback (llvmlite calls one while numba compiles or loads a kernel) swallows the exception
 ("Exception ignored on calling ctypes callback function") and the run goes on as if nothing had
 happened; and an interrupt that ends code run from source text (``exec``/``eval`` of a string)
-is marked unhandled even when caught, so the interpreter ends by the signal itself (exit −2) after
-rotlab has chosen exit 130 (``forget_handled_interrupt``).
+is marked unhandled even when caught, so the interpreter would end by the signal itself (exit −2)
+after rotlab has chosen exit 130: the executable ends with ``os._exit`` (``rotlab.__main__.leave``),
+which that mark cannot reach.
 
 The executable therefore holds these signals over the two phases — imports and numba's compiler
 lock — and delivers them when the phase ends, at the next Python line, where rotlab's handlers catch
@@ -49,15 +50,6 @@ def stopped_at(t: float) -> str:
 def exit_code() -> int:
     """The executable's exit code after a stop: 128 + the signal (130 Ctrl-C, 143 SIGTERM)."""
     return 128 + (stopped_by or signal.SIGINT)
-
-
-def forget_handled_interrupt() -> None:
-    """Let the process exit with the code rotlab chose.  CPython marks a ``KeyboardInterrupt`` that
-    ends any code run from source text (``exec``/``eval`` of a string: dataclasses, namedtuple and
-    numba do it all the time) as unhandled, even when rotlab catches it higher up, and at exit then
-    kills the process by SIGINT (exit −2; seen in ~1 of 8 SIGTERMs 0.3 s into a run).  Running
-    source text once more clears that mark: CPython resets it before evaluating any."""
-    exec("pass")  # noqa: S102 — constant source; the point is the reset that precedes its evaluation
 
 
 def _hold(record: Callable[[int, object], None]) -> dict[int, object]:

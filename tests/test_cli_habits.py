@@ -90,13 +90,29 @@ def test_every_shipped_config_names_the_schema_and_satisfies_it():
 
 
 def test_the_executable_ignores_a_late_ctrl_c_while_it_shuts_down():
-    """Once ``main`` has finished (files complete, exit code known), a Ctrl-C during the
-    interpreter's ~0.5 s of teardown must not end the process by the signal (exit −2, no message:
-    found by the fault campaign)."""
+    """Once ``main`` has finished (files complete, exit code known), a Ctrl-C while the process
+    ends must not end it by the signal (exit −2, no message: found by the fault campaign): stop
+    signals are ignored when ``leave`` is called, with main's exit code."""
     import subprocess
     import sys
 
-    code = ("import signal, sys\nfrom rotlab.__main__ import entry\nsys.argv = ['rotlab', '--version']\n"
-            "try:\n    entry()\nexcept SystemExit:\n    print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)\n")
+    code = ("import signal, sys\nimport rotlab.__main__ as executable\nsys.argv = ['rotlab', 'validate', 'missing.toml']\n"
+            "executable.leave = lambda code: print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN, code)\n"
+            "executable.entry()\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert done.stdout.strip().splitlines()[-1] == "True", done.stdout + done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "True 2", done.stdout + done.stderr
+
+
+def test_the_executable_ends_without_teardown_and_keeps_its_output_and_code(tmp_path):
+    """``leave``: atexit handlers run, buffered output to a pipe is flushed, the exit code is
+    main's, and the interpreter's teardown is skipped (a finaliser does not run)."""
+    import subprocess
+    import sys
+
+    code = ("import atexit, sys\nimport rotlab.__main__ as executable\n"
+            "class Held:\n    def __del__(self):\n        print('teardown ran')\nheld = Held()\n"
+            "atexit.register(print, 'atexit ran')\nsys.stdout.write('buffered ')\n"
+            "sys.argv = ['rotlab', 'validate', 'missing.toml']\nexecutable.entry()\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and "missing.toml" in done.stderr
+    assert done.stdout.split() == ["buffered", "atexit", "ran"], done.stdout
