@@ -47,6 +47,9 @@ def leave(code: object) -> NoReturn:
     else:  # sys.exit("message"): printed, status 1
         sys.stderr.write(f"{code}\n")
         status = 1
+    rerun = sys.modules.get("rerun")
+    if rerun is not None:  # rotlab finished its recordings itself; Rerun's exit hook would wait, without
+        rerun.unregister_shutdown()  # a limit, on a live viewer that stopped reading (rerun-io/rerun#12620)
     try:
         atexit._run_exitfuncs()
         sys.stdout.flush()

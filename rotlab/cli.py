@@ -150,6 +150,8 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     sink = RecordingSink(target, live)
     serve = (lambda: _serve_until_interrupted(sink.web_url)) if serve_web else None  # the server lives as long as the stream
     run, writing, final = api.record(scene, sink, progress=bar, timeout=timeout, before_close=serve)
+    if sink.live_problem is not None:
+        typer.echo(f"rotlab: {sink.live_problem}" + ("; the file has every sample" if target is not None else ""), err=True)
     if not quiet:
         where = sink.web_url or ("viewer spawned" if spawn else connect)
         for line in summary_lines(run, config, final, time.perf_counter() - started, writing, where):

@@ -339,6 +339,48 @@ def test_a_killed_viewer_does_not_stop_or_stall_the_file(tmp_path):
     assert t.shape[0] == 2_000_001
 
 
+def test_a_viewer_that_stops_reading_does_not_stall_the_run(tmp_path):
+    """A "viewer" that accepts the connection and never reads: Rerun's gRPC sink then blocks its
+    sends and flushes for ever (Ctrl-C cannot reach a thread blocked there; before the live feed
+    had its own thread this run hung).  The run goes on at full speed, gives the viewer up with
+    one line, and the file has every sample."""
+    import socket
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    port = server.getsockname()[1]
+    held: list[socket.socket] = []
+
+    def accept_and_never_read() -> None:
+        while True:
+            try:
+                connection, _ = server.accept()
+            except OSError:
+                return
+            connection.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+            held.append(connection)
+
+    import threading
+
+    threading.Thread(target=accept_and_never_read, daemon=True).start()
+    try:
+        started = time.monotonic()
+        done = subprocess.run([*ROTLAB, "run", str(CONFIGS / "euler.toml"), "-o", "file.rrd", "--connect", "--url",
+                               f"rerun+http://127.0.0.1:{port}/proxy", "--duration", "20000", "-q"],
+                              cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        seconds = time.monotonic() - started
+    finally:
+        server.close()
+        for connection in held:
+            connection.close()
+    assert done.returncode == 0, done.stderr
+    assert "rotlab: the live viewer fell 8 chunks behind" in done.stderr and "the file has every sample" in done.stderr
+    assert seconds < 120
+    t, _ = read_series(tmp_path / "file.rrd", layout.QUATERNION)
+    assert t.shape[0] == 2_000_001
+
+
 def test_progress_is_a_transient_bar_on_a_terminal_and_lines_elsewhere(monkeypatch):
     import io
 

@@ -16,13 +16,18 @@ the atomic rename:
 (``rerun rrd verify`` is no substitute: it exits 0 on an empty or truncated file.)  A failed
 run's temporary file is removed and an existing file at the target is never touched.
 
-Live viewers (``--spawn``, ``--connect``, ``--serve-web``) are Rerun's own gRPC sinks on the
-same stream: the same bytes, the same blueprint.
+Live viewers (``--spawn``, ``--connect``, ``--serve-web``) are Rerun's own gRPC sinks on a
+second stream with the same recording id: the same data, the same blueprint.  That stream is fed
+by a thread of its own (``_LiveFeed``): a viewer that stops reading blocks Rerun's gRPC sink
+(sends and flushes alike, for ever, and Ctrl-C cannot reach a thread blocked there), and only
+that thread waits.  A viewer that falls more than ``LIVE_BEHIND`` chunks behind is given up for
+the rest of the run; the file never waits for a viewer.
 """
 
 from __future__ import annotations
 
 import os
+import queue
 import threading
 import uuid
 import warnings
@@ -39,6 +44,7 @@ STREAM_FOOTER_BYTES = 32
 PIPE_READ = 1 << 20
 FLUSH_TIMEOUT = 120.0  # s: Rerun's encoder drains into our pump, which never blocks: a safety net only
 LIVE_TIMEOUT = 10.0  # s: at the end, how long the live viewers get to take the rest
+LIVE_BEHIND = 8  # chunks (flushes) a live viewer may lag behind the file before it is given up
 
 
 @dataclass(frozen=True)
@@ -82,19 +88,73 @@ class _Pump(threading.Thread):
         os.close(self.read_fd)
 
 
-class _Tee:
-    """Logs to several recording streams (the file's and the live viewers')."""
+class _LiveFeed(threading.Thread):
+    """Calls the live stream's methods in this thread, in order, from a queue: the run only
+    queues.  ``flush()`` marks the end of a chunk; past ``LIVE_BEHIND`` chunks not yet delivered
+    the feed gives up (``given_up`` says why) and drops what comes after."""
 
-    def __init__(self, streams: list[rr.RecordingStream]) -> None:
-        self.streams = streams
+    def __init__(self, rec: rr.RecordingStream) -> None:
+        super().__init__(name="rotlab-live-feed", daemon=True)
+        self.rec = rec
+        self.calls: queue.SimpleQueue = queue.SimpleQueue()
+        self.behind = 0  # chunks queued and not yet flushed to the viewers
+        self.lock = threading.Lock()
+        self.given_up: str | None = None
+
+    def submit(self, method: str, *args, **kwargs) -> None:
+        if self.given_up is None:
+            self.calls.put((method, args, kwargs))
+
+    def flush(self) -> None:
+        """End of a chunk: queue a flush (started, not waited for), or give up if too far behind."""
+        with self.lock:
+            if self.given_up is None and self.behind >= LIVE_BEHIND:
+                self.given_up = f"the live viewer fell {LIVE_BEHIND} chunks behind (stopped reading?): streaming to it stopped"
+            if self.given_up is not None:
+                return
+            self.behind += 1
+        self.calls.put(("flush", (), {"timeout_sec": 0.0}))
+
+    def run(self) -> None:
+        while (call := self.calls.get()) is not None:
+            method, args, kwargs = call
+            try:
+                getattr(self.rec, method)(*args, **kwargs)
+            except Exception as exc:  # noqa: BLE001 — the viewer is gone: the file does not depend on it
+                with self.lock:
+                    self.given_up = self.given_up or f"the live viewer failed ({exc}): streaming to it stopped"
+            if method == "flush":
+                with self.lock:
+                    self.behind -= 1
+
+    def finish(self, timeout: float) -> bool:
+        """Deliver what is queued within ``timeout`` s, then end the thread; False if the viewers
+        did not take it in time (the thread is then left waiting on them)."""
+        self.calls.put(("flush", (), {"timeout_sec": timeout}))
+        self.calls.put(None)
+        self.join(timeout + 1.0)
+        if self.is_alive() and self.given_up is None:
+            self.given_up = f"the live viewer did not take the end of the run in {timeout:g} s"
+        return not self.is_alive()
+
+
+class _Tee:
+    """Logs to the file's stream (directly) and the live viewers' (through their feed)."""
+
+    def __init__(self, file_rec: rr.RecordingStream | None, feed: _LiveFeed | None) -> None:
+        self.file_rec, self.feed = file_rec, feed
 
     def log(self, *args, **kwargs) -> None:
-        for rec in self.streams:
-            rec.log(*args, **kwargs)
+        if self.file_rec is not None:
+            self.file_rec.log(*args, **kwargs)
+        if self.feed is not None:
+            self.feed.submit("log", *args, **kwargs)
 
     def send_columns(self, *args, **kwargs) -> None:
-        for rec in self.streams:
-            rec.send_columns(*args, **kwargs)
+        if self.file_rec is not None:
+            self.file_rec.send_columns(*args, **kwargs)
+        if self.feed is not None:
+            self.feed.submit("send_columns", *args, **kwargs)
 
 
 class RecordingSink:
@@ -110,18 +170,17 @@ class RecordingSink:
         self.live = live or LiveOptions()
         self.recording_id = str(uuid.uuid4())
         self._file_rec = self._live_rec = None
-        streams = []
+        self._feed: _LiveFeed | None = None
         if target is not None:
             self._file_rec = rr.RecordingStream(application_id, recording_id=self.recording_id)
-            streams.append(self._file_rec)
+            self._file_rec.set_log_time_enabled(False)
         if self.live.any:
             self._live_rec = rr.RecordingStream(application_id, recording_id=self.recording_id)
-            streams.append(self._live_rec)
-        for rec in streams:
-            rec.set_log_time_enabled(False)
+            self._live_rec.set_log_time_enabled(False)
+            self._feed = _LiveFeed(self._live_rec)
         if self.live.spawn:
             self._spawn_viewer()
-        self.rec = streams[0] if len(streams) == 1 else _Tee(streams)
+        self.rec = self._file_rec if self._feed is None else _Tee(self._file_rec, self._feed)
         self.tmp: Path | None = None
         self._pump: _Pump | None = None
         self._write_fd: int | None = None
@@ -166,6 +225,8 @@ class RecordingSink:
             sinks.append(server)
         self._live_rec.set_sinks(*sinks, default_blueprint=blueprint)
         self._live_rec.send_blueprint(blueprint, make_active=True)
+        assert self._feed is not None
+        self._feed.start()
         if server is not None:
             rr.serve_web_viewer(web_port=self.live.web_port, open_browser=False, connect_to=server.uri)
             self.web_url = f"http://127.0.0.1:{self.live.web_port or 9090}/?url={server.uri.replace('0.0.0.0', '127.0.0.1')}"
@@ -173,18 +234,24 @@ class RecordingSink:
     def update_blueprint(self, blueprint: rrb.Blueprint) -> None:
         """Replace the default layout (the final one, from the whole run: plot ranges that the
         first chunk alone could not know) in the file and in live viewers."""
-        for rec in (self._file_rec, self._live_rec):
-            if rec is not None:
-                rec.send_blueprint(blueprint, make_active=True, make_default=True)
+        if self._file_rec is not None:
+            self._file_rec.send_blueprint(blueprint, make_active=True, make_default=True)
+        if self._feed is not None:
+            self._feed.submit("send_blueprint", blueprint, make_active=True, make_default=True)
 
     def drain(self) -> None:
         """Wait until Rerun has encoded what was sent to the file and the pump has taken it:
         back-pressure, so that memory holds one chunk, not a backlog that grows with the run."""
         if self._file_rec is not None:
             self._file_rec.flush(timeout_sec=FLUSH_TIMEOUT)
-        if self._live_rec is not None:
-            self._live_rec.flush(timeout_sec=0.0)  # start sending; never wait for a viewer
+        if self._feed is not None:
+            self._feed.flush()  # queued: never waits for a viewer
         self.check()
+
+    @property
+    def live_problem(self) -> str | None:
+        """Why the live viewers stopped receiving the run (None while they keep up)."""
+        return None if self._feed is None else self._feed.given_up
 
     def check(self) -> None:
         """Raise ``RunFailure`` if a write to the file has failed (disk full, …)."""
@@ -196,12 +263,9 @@ class RecordingSink:
         if self._closed:
             return
         self._closed = True
-        if self._live_rec is not None:
-            try:
-                self._live_rec.flush(timeout_sec=LIVE_TIMEOUT)
-            except RuntimeError:  # the viewer is gone or too slow: the file does not depend on it
-                pass
-            self._live_rec.disconnect()
+        feed = self._feed
+        if feed is not None and feed.is_alive() and feed.given_up is None and feed.finish(LIVE_TIMEOUT):
+            self._live_rec.disconnect()  # delivered; a feed still waiting on a viewer is left to it
         if self._file_rec is None:
             return
         try:
