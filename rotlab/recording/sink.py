@@ -145,16 +145,19 @@ class _Tee:
         self.file_rec, self.feed = file_rec, feed
 
     def log(self, *args, **kwargs) -> None:
-        if self.file_rec is not None:
-            self.file_rec.log(*args, **kwargs)
-        if self.feed is not None:
-            self.feed.submit("log", *args, **kwargs)
+        self._both("log", args, kwargs)
 
     def send_columns(self, *args, **kwargs) -> None:
+        self._both("send_columns", args, kwargs)
+
+    def send_blueprint(self, *args, **kwargs) -> None:
+        self._both("send_blueprint", args, kwargs)
+
+    def _both(self, method: str, args: tuple, kwargs: dict) -> None:
         if self.file_rec is not None:
-            self.file_rec.send_columns(*args, **kwargs)
+            getattr(self.file_rec, method)(*args, **kwargs)
         if self.feed is not None:
-            self.feed.submit("send_columns", *args, **kwargs)
+            self.feed.submit(method, *args, **kwargs)
 
 
 class RecordingSink:
@@ -234,10 +237,8 @@ class RecordingSink:
     def update_blueprint(self, blueprint: rrb.Blueprint) -> None:
         """Replace the default layout (the final one, from the whole run: plot ranges that the
         first chunk alone could not know) in the file and in live viewers."""
-        if self._file_rec is not None:
-            self._file_rec.send_blueprint(blueprint, make_active=True, make_default=True)
-        if self._feed is not None:
-            self._feed.submit("send_blueprint", blueprint, make_active=True, make_default=True)
+        if self.rec is not None:
+            self.rec.send_blueprint(blueprint, make_active=True, make_default=True)
 
     def drain(self) -> None:
         """Wait until Rerun has encoded what was sent to the file and the pump has taken it:

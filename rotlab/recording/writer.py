@@ -9,10 +9,10 @@ space) at every ``stride``-th sample, collected until ``VISUAL_ROWS`` of them or
 have passed: every ``send_columns`` is one chunk in the file, and Rerun holds memory per chunk
 until the end of the file, so ~25 visual entities sent with every 16,384-sample flush at stride
 100 (~150,000 tiny chunks) made a 10⁸-sample run peak 60 MB higher; 4,096 rows at a time keep
-their conversion's transient memory small (16,384 held ~25 MB more at the peak).  The static part is written
-twice: at the start (so that a live viewer has the body and the layout at once) and at the end,
-from a thinned copy of the run (``Thinned``: at most 2·MAX_PATH_POINTS samples) for the paths and
-the run report.
+their conversion's transient memory small (16,384 held ~25 MB more at the peak).  The static
+part is written twice: at the start (so that a live viewer has the body and the layout at once)
+and at the end, from a thinned copy of the run (``Thinned``: at most 2·MAX_PATH_POINTS samples)
+for the paths and the run report.
 """
 
 from __future__ import annotations
@@ -150,6 +150,7 @@ class RecordingWriter:
         self.energy: tuple[float, float] | None = None
         self.visual: list[Trajectory] = []  # visual samples not sent yet
         self.visual_rows = 0
+        self.visual_chunk_rows = min(chunk_rows, VISUAL_ROWS)
         self.visual_sent_at = time.monotonic()
 
     def _start(self, first: Trajectory) -> None:
@@ -173,7 +174,7 @@ class RecordingWriter:
             if picked.size:
                 self.visual.append(chunk if self.stride == 1 else chunk.take(picked))
                 self.visual_rows += picked.size
-            if self.visual_rows >= min(self.chunk_rows, VISUAL_ROWS) or time.monotonic() - self.visual_sent_at >= VISUAL_SECONDS:
+            if self.visual_rows >= self.visual_chunk_rows or time.monotonic() - self.visual_sent_at >= VISUAL_SECONDS:
                 self._send_visual()
         self.sink.drain()
 
@@ -181,7 +182,7 @@ class RecordingWriter:
         """Send the collected visual samples (one chunk per entity per ``VISUAL_ROWS``)."""
         if self.visual:
             thin = concatenate(self.visual)
-            _write_visual(self.rec, thin, _views(thin, self.scales), min(self.chunk_rows, VISUAL_ROWS))
+            _write_visual(self.rec, thin, _views(thin, self.scales), self.visual_chunk_rows)
         self.visual, self.visual_rows, self.visual_sent_at = [], 0, time.monotonic()
 
     def finish(self, summary: RunSummary, thinned: Trajectory | None) -> None:
