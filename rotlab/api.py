@@ -108,20 +108,24 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
     n = t.shape[0]
     stride = max(1, -(-n // scene.scenario.output.visual_samples))
     stats = RunStats(method=chosen.name, reason=reason, steps=0, rejected_steps=0, rhs_evaluations=0, seconds=0.0)
-    stream = ChunkStream(scene, stats, RecordingWriter(sink, stride=stride), scene.scenario.output.euler_angles, progress, n)
-    control = RunControl(consumer=stream, deadline=None if timeout is None else time.monotonic() + timeout, timeout=timeout)
-    with compile_clock() as compiling, controlled(control):
-        started = time.perf_counter()
-        solution = chosen.solve(scene, t, settings, progress)
-        seconds = time.perf_counter() - started - stream.seconds
-    final = _stats(chosen, reason, solution, seconds, compiling.seconds)
-    vars(stats).update(vars(final))  # the chunks hold this object: the report sees the final figures
-    stats.details = {**stats.details, "visual series": f"every {stride} samples" if stride > 1 else "every sample"}
-    try:
-        summary = stream.finish()
-    except KeyboardInterrupt:  # Ctrl-C while the last chunk and the static part were sent
-        stats.failure, stats.interrupted = interrupts.stopped_at(stream.last_time), True
-        summary = stream.summary()
+    # numba compiles (or loads) the method's kernel and the writer's; that time is kept apart from both
+    with compile_clock(announce=None if progress is None else progress.compiling) as compiling:
+        writer = RecordingWriter(sink, stride=stride)
+        stream = ChunkStream(scene, stats, writer, scene.scenario.output.euler_angles, progress, n, clock=compiling)
+        control = RunControl(consumer=stream, deadline=None if timeout is None else time.monotonic() + timeout, timeout=timeout)
+        with controlled(control):
+            started = time.perf_counter()
+            solution = chosen.solve(scene, t, settings, progress)
+            seconds = time.perf_counter() - started - stream.seconds  # integration + its compiling
+        final = _stats(chosen, reason, solution, seconds, compiling.seconds)
+        vars(stats).update(vars(final))  # the chunks hold this object: the report sees the final figures
+        stats.details = {**stats.details, "visual series": f"every {stride} samples" if stride > 1 else "every sample"}
+        try:
+            summary = stream.finish()
+        except KeyboardInterrupt:  # Ctrl-C while the last chunk and the static part were sent
+            stats.failure, stats.interrupted = interrupts.stopped_at(stream.last_time), True
+            summary = stream.summary()
+        stats.compile_seconds = compiling.seconds  # the writer's static part may have compiled too
     if stats.interrupted or summary.samples < solution.valid:  # Ctrl-C, maybe inside the writer: say what was kept
         stats.failure, stats.interrupted = interrupts.stopped_at(summary.end), True
     return summary, stream.seconds

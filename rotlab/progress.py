@@ -1,7 +1,8 @@
 """One progress display for a whole run — integration and writing — on stderr.
 
 On a terminal: a transient rich bar (gone when the run ends) with samples written, rate and ETA,
-and how far the integration has got.  Elsewhere (CI logs, pipes): a plain line on stdout at most
+how far the integration has got, and "compiling numba kernels" while numba compiles (seconds to a
+minute on a first run, when nothing else moves).  Elsewhere (CI logs, pipes): a plain line on stdout at most
 every ``LINE_EVERY`` seconds, none for runs shorter than that (stderr then carries only the
 one-line error of a run that fails).
 """
@@ -13,6 +14,7 @@ import time
 from typing import TextIO
 
 LINE_EVERY = 10.0  # s between lines when stderr is not a terminal
+COMPILING = "compiling numba kernels (once)"
 
 
 class StreamProgress:
@@ -38,6 +40,14 @@ class StreamProgress:
         self.done = done
         self._show(total)
 
+    def compiling(self, active: bool) -> None:
+        """numba started (True) or finished (False) compiling a kernel (``compile_clock``'s announce)."""
+        if not self.terminal:
+            return  # the summary reports the compile time; a line here would only interleave the log
+        if self._bar is None:
+            self._open(None)
+        self._bar.update(self._task, description=f"{self.label} · {COMPILING}" if active else self.label)
+
     def _show(self, total: int) -> None:
         now = time.perf_counter()
         if self.terminal:
@@ -55,7 +65,7 @@ class StreamProgress:
                              f"integrated {self.integrated:,}), {rate:,.0f} samples/s, {left}\n")
             self.lines.flush()
 
-    def _open(self, total: int) -> None:
+    def _open(self, total: int | None) -> None:
         from rich.console import Console
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 

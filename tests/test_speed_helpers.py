@@ -37,3 +37,21 @@ def test_compile_clock_counts_a_compilation_and_not_the_run():
     with compile_clock() as second:
         busy(10)
     assert second.seconds == 0.0  # compiled already: nothing to count
+
+
+def test_the_clock_reads_a_compile_in_progress_and_announces_it():
+    from numba import njit
+
+    @njit(cache=False)
+    def other(n):
+        return n * 2.0
+
+    heard: list[tuple[bool, float]] = []
+    with compile_clock(announce=lambda active: heard.append((active, clock.seconds))) as clock:
+        other(1.0)
+    assert [active for active, _ in heard] == [True, False]  # one compile, outermost start and end only
+    started, ended = heard[0][1], heard[1][1]
+    assert 0.0 <= started < ended <= clock.seconds  # read while numba held its lock: the hold counts already
+    with compile_clock(announce=lambda active: heard.append((active, 0.0))):
+        other(2.0)
+    assert len(heard) == 2  # no compile, nothing announced

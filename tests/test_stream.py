@@ -450,3 +450,61 @@ def test_ctrl_c_while_a_chunk_is_written_keeps_that_chunk_whole(tmp_path, monkey
     assert run.stats.interrupted and final == tmp_path / "out.partial.rrd"
     t, q = read_series(final, layout.QUATERNION)
     assert len(calls) == 2 and t.shape[0] == run.samples >= 100 and np.all(np.isfinite(q))
+
+
+def test_a_compile_inside_the_writer_is_reported_as_compiling_not_writing(tmp_path, monkeypatch):
+    """The summary's parts (integration, compiling, writing) do not overlap: numba compiling a
+    kernel while the writer runs (the load views' on a first run) is compile time, not writing."""
+    from numba import njit
+
+    from rotlab.recording.writer import RecordingWriter
+
+    compiled: list[float] = []
+    write = RecordingWriter.write
+
+    def write_after_a_compile(self, chunk, start):
+        if not compiled:
+            @njit(cache=False)
+            def fresh(n):
+                s = 0.0
+                for i in range(n):
+                    s += np.sin(i * 0.1)
+                return s
+
+            started = time.perf_counter()
+            fresh(3)
+            compiled.append(time.perf_counter() - started)
+        return write(self, chunk, start)
+
+    monkeypatch.setattr(RecordingWriter, "write", write_after_a_compile)
+    scenario = rotlab.load(CONFIGS / "euler.toml", method="exact")
+    started = time.perf_counter()
+    run, writing, final = api.record(build_scene(scenario), RecordingSink(tmp_path / "run.rrd"))
+    wall = time.perf_counter() - started
+    assert final == tmp_path / "run.rrd" and run.samples == scenario.time.sample_count
+    assert run.stats.compile_seconds >= 0.9 * compiled[0]
+    assert run.stats.seconds + run.stats.compile_seconds + writing <= wall  # nothing counted twice
+
+
+def test_the_bar_says_when_numba_is_compiling():
+    import io
+
+    from rotlab import progress as progress_module
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    screen = Terminal()
+    bar = progress_module.StreamProgress("run.toml", stream=screen)
+    bar.compiling(True)  # at once, before any sample: a first run's compile is when nothing else moves
+    assert bar._bar is not None and bar._bar.tasks[0].description == f"run.toml · {progress_module.COMPILING}"
+    bar.compiling(False)
+    assert bar._bar.tasks[0].description == "run.toml"
+    bar.close()
+    log = io.StringIO()
+    bar = progress_module.StreamProgress("run.toml", stream=log)
+    bar.compiling(True)
+    bar.compiling(False)
+    bar.close()
+    assert log.getvalue() == ""  # not a terminal: the summary reports the compile time

@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from rotlab import interrupts
+from rotlab.methods.compile_time import CompileClock
 from rotlab.recording.writer import RecordingWriter, Thinned
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import Reference, RunStats, RunSummary, build_chunk, reference_of
@@ -26,8 +27,9 @@ class ChunkStream:
     """A ``RowConsumer`` (see ``rotlab.methods.stepping``) that writes the run as it is produced."""
 
     def __init__(self, scene: Scene, stats: RunStats, writer: RecordingWriter, euler_angles: bool,
-                 progress=None, total: int = 0) -> None:
+                 progress=None, total: int = 0, clock: CompileClock | None = None) -> None:
         self.scene, self.stats, self.writer, self.euler_angles = scene, stats, writer, euler_angles
+        self.clock = CompileClock() if clock is None else clock  # numba's compile time, kept out of ``seconds``
         self.progress, self.total = progress, total
         self.pending_t: list[np.ndarray] = []
         self.pending_state: list[np.ndarray] = []
@@ -38,7 +40,7 @@ class ChunkStream:
         self.drift = {name: 0.0 for name in scene.invariants}
         self.thinned = Thinned()
         self.first_time = self.last_time = 0.0
-        self.seconds = 0.0  # spent converting and sending
+        self.seconds = 0.0  # spent converting and sending (not compiling)
         self.flushed_at = time.monotonic()
 
     def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> None:
@@ -57,7 +59,7 @@ class ChunkStream:
             self._flush()
 
     def _flush(self) -> None:
-        started = time.perf_counter()
+        started = self._started()
         self.flushed_at = time.monotonic()
         t, state = np.concatenate(self.pending_t), np.concatenate(self.pending_state)
         self.pending_t, self.pending_state, self.pending = [], [], 0
@@ -77,7 +79,7 @@ class ChunkStream:
             self.previous_angles = chunk.euler_angles[-1].copy()
         self.written += t.shape[0]
         self.last_time = float(t[-1])
-        self.seconds += time.perf_counter() - started
+        self._stopped(started)
         if self.progress is not None:
             self.progress.written(self.written, self.total)
 
@@ -87,10 +89,18 @@ class ChunkStream:
     def finish(self) -> RunSummary:
         """Send what is pending, then the static part from the thinned run; returns the summary."""
         self.flush()
-        started = time.perf_counter()
+        started = self._started()
         summary = self.summary()
         t, state = self.thinned.arrays()
         thinned = build_chunk(self.scene, self.stats, t, state, self.reference, False, None) if t.shape[0] else None
         self.writer.finish(summary, thinned)
-        self.seconds += time.perf_counter() - started
+        self._stopped(started)
         return summary
+
+    def _started(self) -> tuple[float, float]:
+        return time.perf_counter(), self.clock.seconds
+
+    def _stopped(self, started: tuple[float, float]) -> None:
+        """Add the time since ``started`` to ``seconds``, less what numba spent compiling in it."""
+        wall, compiling = started
+        self.seconds += (time.perf_counter() - wall) - (self.clock.seconds - compiling)
