@@ -8,7 +8,9 @@ The invariants and their relative drift: ``rotlab.invariants`` (one table).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
+from functools import cached_property, wraps
+from typing import TypeVar
 
 import numpy as np
 
@@ -16,6 +18,8 @@ from rotlab import invariants
 from rotlab.core import quaternion as quat
 from rotlab.methods.base import Solution
 from rotlab.scene.scene import Scene
+
+Result = TypeVar("Result")
 
 
 @dataclass
@@ -32,24 +36,92 @@ class RunStats:
     compile_seconds: float = 0.0  # numba compilation / cache loading during the run (not in ``seconds``)
 
 
-@dataclass
+def _near_blow_up(compute: Callable[..., Result]) -> Callable[..., Result]:
+    """``compute`` without numpy's overflow warnings: near a blow-up a finite state can have an
+    overflowing energy, reported as inf."""
+
+    @wraps(compute)
+    def quietly(*args, **kwargs) -> Result:
+        with np.errstate(over="ignore", invalid="ignore"):
+            return compute(*args, **kwargs)
+
+    return quietly
+
+
 class Trajectory:
     """Time series of a run.  Vectors: ``omega``, ``L_body`` body frame; ``L_space`` space frame;
-    ``quaternion`` body → space, scalar first (as integrated: |Λ| − 1 is in ``invariants``)."""
+    ``quaternion`` body → space, scalar first (as integrated: |Λ| − 1 is in ``invariants``).
+
+    Built from the integrated state (principal frame); every other series is computed on first
+    use and kept, so a call that needs only Λ and ω does not pay for the energies and drifts."""
 
     scene: Scene
     stats: RunStats
     t: np.ndarray  # (N,) s
-    quaternion: np.ndarray  # (N, 4)
-    omega: np.ndarray  # (N, 3) rad/s, body
-    L_body: np.ndarray  # (N, 3) kg·m²/s, body
-    L_space: np.ndarray  # (N, 3) kg·m²/s, space
-    kinetic: np.ndarray  # (N,) J
-    potential: np.ndarray | None  # (N,) J, None when no field acts
-    work: np.ndarray | None  # (N,) J, None without non-conservative loads
-    total: np.ndarray  # (N,) J, T + V
-    invariants: dict[str, np.ndarray]  # relative drift, see module docstring
-    euler_angles: np.ndarray | None = None  # (N, 3) rad (ψ, θ, φ), when asked for
+
+    def __init__(self, scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray, reference: Reference | None = None,
+                 euler_angles: bool = False, previous_angles: np.ndarray | None = None,
+                 series: dict[str, object] | None = None) -> None:
+        """``state``: (N, 8) rows [Λ_P, ω_P, W] (principal frame); drifts from ``reference``
+        (None: from the first row); Euler angles when ``euler_angles``, unwrapped on from
+        ``previous_angles``; ``series``: values already computed (name → array)."""
+        self.scene, self.stats, self.t = scene, stats, t
+        self._state, self._reference = state, reference
+        self._euler, self._previous_angles = euler_angles, previous_angles
+        self.__dict__.update(series or {})  # read by the cached properties below before they compute
+
+    @cached_property
+    @_near_blow_up
+    def quaternion(self) -> np.ndarray:  # (N, 4)
+        q_p = self._state[:, 0:4]
+        return q_p if self.scene.is_principal else quat.multiply_array(q_p, quat.conjugate_array(self.scene.axes_quaternion))
+
+    @cached_property
+    def omega(self) -> np.ndarray:  # (N, 3) rad/s, body
+        return self._to_user(self._state[:, 4:7])
+
+    @cached_property
+    def L_body(self) -> np.ndarray:  # (N, 3) kg·m²/s, body
+        return self._to_user(self._quantities[1])
+
+    @cached_property
+    def L_space(self) -> np.ndarray:  # (N, 3) kg·m²/s, space
+        return self._quantities[2]
+
+    @cached_property
+    def kinetic(self) -> np.ndarray:  # (N,) J
+        return self._quantities[3]
+
+    @cached_property
+    def potential(self) -> np.ndarray | None:  # (N,) J, None when no field acts
+        return self._quantities[4]
+
+    @cached_property
+    def work(self) -> np.ndarray | None:  # (N,) J, None without non-conservative loads
+        return self._state[:, 7] if self.scene.has_work else None
+
+    @cached_property
+    def total(self) -> np.ndarray:  # (N,) J, T + V
+        return self._quantities[5]
+
+    @cached_property
+    def invariants(self) -> dict[str, np.ndarray]:  # relative drift, see module docstring
+        quantities = self._quantities
+        reference = self._reference if self._reference is not None or not len(self.t) else _reference(quantities)
+        return _drifts(self.scene, self._state[:, 0:4], quantities[1], quantities[2], quantities[6], reference)
+
+    @cached_property
+    def euler_angles(self) -> np.ndarray | None:  # (N, 3) rad (ψ, θ, φ), when asked for
+        return _continuous_euler_angles(self.quaternion, self._previous_angles) if self._euler else None
+
+    @cached_property
+    def _quantities(self):
+        """(unit Λ_P, L_P, L_space, T, V, T + V, T + V − W): see ``_quantities``."""
+        return _quantities(self.scene, self._state)
+
+    @_near_blow_up
+    def _to_user(self, rows: np.ndarray) -> np.ndarray:
+        return rows if self.scene.is_principal else _rows_times(rows, self.scene.axes.T)
 
     def max_drift(self) -> dict[str, float]:
         """max |drift| over the run, per invariant."""
@@ -116,17 +188,19 @@ def concatenate(parts: list[Trajectory]) -> Trajectory:
     return parts[0] if len(parts) == 1 else _per_series(parts, np.concatenate)
 
 
-# The per-sample arrays of a Trajectory (None where the scene has no such series), drifts apart.
-_SERIES = tuple(f.name for f in fields(Trajectory) if f.name not in ("scene", "stats", "invariants"))
+# The per-sample series of a Trajectory (None where the scene has no such series), drifts apart.
+_SERIES = ("quaternion", "omega", "L_body", "L_space", "kinetic", "potential", "work", "total", "euler_angles")
 
 
 def _per_series(parts: list[Trajectory], combine: Callable[[list[np.ndarray]], np.ndarray]) -> Trajectory:
     """A Trajectory of ``parts[0]``'s scene and stats whose every series (and drift) is
-    ``combine`` of that series in each of ``parts``."""
+    ``combine`` of that series in each of ``parts`` (computed in each part first)."""
     first = parts[0]
-    series = {name: None if getattr(first, name) is None else combine([getattr(p, name) for p in parts]) for name in _SERIES}
-    drifts = {name: combine([p.invariants[name] for p in parts]) for name in first.invariants}
-    return Trajectory(first.scene, first.stats, invariants=drifts, **series)
+    series: dict[str, object] = {name: None if getattr(first, name) is None else combine([getattr(p, name) for p in parts])
+                                 for name in _SERIES}
+    series["invariants"] = {name: combine([p.invariants[name] for p in parts]) for name in first.invariants}
+    return Trajectory(first.scene, first.stats, combine([p.t for p in parts]), combine([p._state for p in parts]),
+                      first._reference, first._euler, series=series)
 
 
 @dataclass
@@ -156,11 +230,10 @@ class Reference:
 
 
 def build_trajectory(scene: Scene, solution: Solution, stats: RunStats, euler_angles: bool = False) -> Trajectory:
-    """Diagnostics of the valid part of ``solution``, converted to the user's frames.
-    Near a blow-up a finite state can have an overflowing energy: it is reported as inf."""
+    """Diagnostics of the valid part of ``solution``, converted to the user's frames (computed on
+    first use)."""
     n = solution.valid
-    with np.errstate(over="ignore", invalid="ignore"):
-        return build_chunk(scene, stats, solution.t[:n], solution.state[:n], None, euler_angles, None)
+    return Trajectory(scene, stats, solution.t[:n], solution.state[:n], None, euler_angles)
 
 
 def build_chunk(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray, reference: Reference | None,
@@ -168,8 +241,7 @@ def build_chunk(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray,
     """The diagnostics of consecutive samples ``state`` (principal frame) of a run: drifts from
     ``reference`` (None: this chunk starts the run), Euler angles unwrapped on from
     ``previous_angles`` (the last angles of the previous chunk)."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        return _build(scene, stats, t, state, reference, euler_angles, previous_angles)
+    return Trajectory(scene, stats, t, state, reference, euler_angles, previous_angles)
 
 
 def reference_of(scene: Scene, state0: np.ndarray) -> Reference:
@@ -186,7 +258,9 @@ def _reference(quantities) -> Reference:
     return Reference(L_p[0].copy(), L_space[0].copy(), float(np.linalg.norm(L_p[0])), h0, max(abs(h0), float(kinetic[0]) + v0))
 
 
+@_near_blow_up
 def _quantities(scene: Scene, state: np.ndarray):
+    """(unit Λ_P, L_P, L_space, T, V (None without a field), T + V, T + V − W) of principal-frame rows."""
     q_p, w_p, work = state[:, 0:4], state[:, 4:7], state[:, 7]
     unit_q = q_p / np.linalg.norm(q_p, axis=1, keepdims=True)
     L_p = w_p * scene.moments
@@ -197,38 +271,7 @@ def _quantities(scene: Scene, state: np.ndarray):
     return unit_q, L_p, L_space, kinetic, potential, total, total - work
 
 
-def _build(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray, reference: Reference | None,
-           euler_angles: bool, previous_angles: np.ndarray | None) -> Trajectory:
-    q_p, w_p, work = state[:, 0:4], state[:, 4:7], state[:, 7]
-    quantities = _quantities(scene, state)
-    unit_q, L_p, L_space, kinetic, potential, total, invariant_energy = quantities
-
-    if scene.is_principal:
-        q_user, w_user, L_user = q_p, w_p, L_p
-    else:
-        q_user = quat.multiply_array(q_p, quat.conjugate_array(scene.axes_quaternion))
-        w_user, L_user = _rows_times(w_p, scene.axes.T), _rows_times(L_p, scene.axes.T)
-
-    if reference is None and len(state):
-        reference = _reference(quantities)
-    drift = _drifts(scene, q_p, L_p, L_space, invariant_energy, reference)
-    return Trajectory(
-        scene=scene,
-        stats=stats,
-        t=t,
-        quaternion=q_user,
-        omega=w_user,
-        L_body=L_user,
-        L_space=L_space,
-        kinetic=kinetic,
-        potential=potential,
-        work=work if scene.has_work else None,
-        total=total,
-        invariants=drift,
-        euler_angles=_continuous_euler_angles(q_user, previous_angles) if euler_angles else None,
-    )
-
-
+@_near_blow_up
 def _continuous_euler_angles(q: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
     """3-1-3 angles along the run with ψ and φ unwrapped (continuous in time, not cut at ±π),
     continuing from ``previous`` (the angles of the sample before ``q``) when given."""
@@ -253,6 +296,7 @@ def _rows_times(rows: np.ndarray, matrix: np.ndarray) -> np.ndarray:
     return np.einsum("ij,j...->i...", rows, matrix)
 
 
+@_near_blow_up
 def _drifts(scene: Scene, q_p, L_p, L_space, invariant_energy, reference: Reference | None) -> dict[str, np.ndarray]:
     """Relative drift of each of the scene's invariants (``rotlab.invariants``) from ``reference``."""
     if not len(q_p) or reference is None:
