@@ -9,6 +9,8 @@ vectorised numpy over a leading sample axis for post-processing.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -135,11 +137,11 @@ def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def from_euler_313(psi: float, theta: float, phi: float) -> np.ndarray:
-    """Classical 3-1-3 Euler angles: Λ = Λ_z(ψ) ∘ Λ_x(θ) ∘ Λ_z(φ) (precession, nutation, spin)."""
-    z = np.array([0.0, 0.0, 1.0])
-    x = np.array([1.0, 0.0, 0.0])
-    q = multiply_array(from_axis_angle(z, psi), from_axis_angle(x, theta))
-    return multiply_array(q, from_axis_angle(z, phi))
+    """Classical 3-1-3 Euler angles: Λ = Λ_z(ψ) ∘ Λ_x(θ) ∘ Λ_z(φ) (precession, nutation, spin),
+    multiplied out:  Λ = (cos ½θ cos ½(ψ+φ), sin ½θ cos ½(ψ−φ), sin ½θ sin ½(ψ−φ), cos ½θ sin ½(ψ+φ))."""
+    c, s = math.cos(0.5 * theta), math.sin(0.5 * theta)
+    plus, minus = 0.5 * (psi + phi), 0.5 * (psi - phi)
+    return np.array([c * math.cos(plus), s * math.cos(minus), s * math.sin(minus), c * math.sin(plus)])
 
 
 def to_euler_313(q: np.ndarray) -> np.ndarray:

@@ -114,12 +114,13 @@ def build_scene(scenario: cfg.Scenario, torque: Callable | None = None, frame: s
     """The scene of ``scenario``; ``torque`` adds a Python function fn(t, q, omega) -> M (user's
     body frame in, M in ``frame``) compiled by numba (``rotlab.scene.loads.user_torque``)."""
     body = scenario.body
-    if body.principal_moments is not None:
-        moments, axes = np.asarray(body.principal_moments, dtype=float), np.eye(3)
+    if body.principal_moments is not None:  # the user's axes are the principal axes
+        moments, axes, axes_q = np.asarray(body.principal_moments, dtype=float), np.eye(3), np.array([1.0, 0.0, 0.0, 0.0])
+        q0 = initial_quaternion(scenario.initial)
     else:
         moments, axes = inertia.principal_axes(np.asarray(body.inertia_tensor, dtype=float))
-    axes_q = quat.from_matrix(axes)
-    q0 = quat.multiply_array(initial_quaternion(scenario.initial), axes_q)
+        axes_q = quat.from_matrix(axes)
+        q0 = quat.multiply_array(initial_quaternion(scenario.initial), axes_q)
     omega0 = axes.T @ np.asarray(scenario.initial.omega, dtype=float)
     user = None if torque is None else user_torque(torque, frame, axes)
     loads = compile_loads(scenario, axes, moments, user)
