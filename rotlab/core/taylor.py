@@ -25,6 +25,7 @@ Dense output: the step's own polynomial, evaluated at the samples in (t, t + h] 
 from __future__ import annotations
 
 import math
+from functools import cache
 
 import numpy as np
 from numba import njit
@@ -46,13 +47,21 @@ def force_map(forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     column m of T is p × L(e_m, F), L linear in the products P (``rotate_quadratic``)."""
     c0 = np.zeros(3)
     T = np.zeros((3, N_PRODUCTS))
-    units = np.eye(N_PRODUCTS).ravel()
+    maps = _quadratic_maps()
     for row in forces:
         arm, force = row[:3], row[3:]
         c0 += cross_array(arm, force)
-        quadratic = np.array([rotate_quadratic(units, N_PRODUCTS * m, force[0], force[1], force[2]) for m in range(N_PRODUCTS)])
-        T += cross_array(arm, quadratic).T
+        T += cross_array(arm, maps @ force).T
     return c0, T
+
+
+@cache
+def _quadratic_maps() -> np.ndarray:
+    """(N_PRODUCTS, 3, 3): L(e_m, v) = maps[m] v for the unit product e_m (L is linear in v; its
+    entries are 0 and ±2, so maps[m] v rounds as ``rotate_quadratic`` does)."""
+    units = np.eye(N_PRODUCTS).ravel()
+    columns = [[rotate_quadratic.py_func(units, N_PRODUCTS * m, *e) for e in np.eye(3)] for m in range(N_PRODUCTS)]
+    return np.ascontiguousarray(np.array(columns).transpose(0, 2, 1))
 
 
 @njit(cache=True)

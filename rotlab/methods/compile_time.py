@@ -18,6 +18,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
+from functools import cache
 
 
 class CompileClock:
@@ -58,22 +59,28 @@ def compile_clock(announce: Callable[[bool], None] | None = None) -> Iterator[Co
         yield clock
 
 
-def _Listener(start: Callable[[], None], end: Callable[[], None]):  # noqa: N802 — a numba Listener, built on use
+def _Listener(start: Callable[[], None], end: Callable[[], None]):  # noqa: N802 — a numba Listener
     """A numba event listener calling ``start`` at the outermost start event and ``end`` at its end."""
+    return _outermost_class()(start, end)
+
+
+@cache
+def _outermost_class():
+    """The listener class, made once (numba's ``Listener`` base is imported only when numba is)."""
     from numba.core import event
 
     class Outermost(event.Listener):
-        def __init__(self) -> None:
-            self.depth = 0
+        def __init__(self, start: Callable[[], None], end: Callable[[], None]) -> None:
+            self.start, self.end, self.depth = start, end, 0
 
         def on_start(self, ev) -> None:
             self.depth += 1
             if self.depth == 1:
-                start()
+                self.start()
 
         def on_end(self, ev) -> None:
             self.depth -= 1
             if self.depth == 0:
-                end()
+                self.end()
 
-    return Outermost()
+    return Outermost
