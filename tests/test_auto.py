@@ -152,3 +152,34 @@ def test_a_loop_of_runs_moves_to_a_stepper_once_loading_it_pays(tmp_path):
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
     first, last = done.stdout.split()
     assert first == "exact" and last != "exact"
+
+
+def test_a_process_told_to_expect_many_runs_steps_from_the_first(tmp_path):
+    """A sweep worker knows how many cases it will run (``choose.expect_runs``): the kernel's
+    first use is shared among them from the first case, so 2,000 runs of euler.toml start with
+    the stepper that the loop above reaches only by its 1024th run."""
+    code = (
+        "import rotlab\n"
+        "from rotlab.methods.choose import expect_runs\n"
+        f"sc = rotlab.load({str(CONFIGS / 'euler.toml')!r})\n"
+        "expect_runs(2000)\n"
+        "print(rotlab.simulate(sc).stats.method)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
+    assert done.stdout.split() != ["exact"]
+
+
+def test_sweep_workers_are_told_their_share_of_the_cases(monkeypatch):
+    from rotlab.sweep import runner
+
+    p = runner.plan(CONFIGS / "sweep_flip.toml")
+    p = runner.SweepPlan(p.base.model_copy(update={"solver": p.base.solver.model_copy(update={"method": "auto"})}), p.cases, p.scenarios)
+    seen = {}
+
+    def record(fn, tasks, jobs, **kw):
+        seen["tasks"], seen["jobs"] = tasks, jobs
+        return runner.TaskRun([])
+
+    monkeypatch.setattr(runner, "run_tasks", record)
+    runner.run_cases(p, jobs=2)
+    assert {task[2] for task in seen["tasks"]} == {-(-len(p.cases) // 2)}  # 12 cases on 2 workers: 6 each

@@ -74,6 +74,20 @@ def choose_method(scene: Scene, requested: str, settings: Settings, t: np.ndarra
 CACHE_SIZE = 512
 _CHOICES: dict[tuple, tuple[Method, str, Settings]] = {}
 _RUNS = 0  # auto choices made in this process (cache hits included): a process that ran k runs is expected to run ~k more
+_EXPECTED_RUNS = 0  # runs this process is known to make (``expect_runs``: a sweep worker's share of the cases)
+_READY: set[str] = set()  # methods whose kernel has run in this process (it stays loaded)
+
+
+def expect_runs(count: int) -> None:
+    """Tell ``auto`` that this process will make about ``count`` runs (a sweep's cases per
+    worker), so that loading a stepping method's kernel is shared among them from the first
+    run rather than after as many runs have been made."""
+    global _EXPECTED_RUNS
+    _EXPECTED_RUNS = max(0, int(count))
+
+
+def _expected_runs() -> int:
+    return max(_RUNS, _EXPECTED_RUNS, 1)
 
 
 def _choice_key(scene: Scene, settings: Settings, t: np.ndarray) -> tuple | None:
@@ -85,7 +99,7 @@ def _choice_key(scene: Scene, settings: Settings, t: np.ndarray) -> tuple | None
         hash(loads)
     except TypeError:
         return None
-    return (_numba_ready(), _RUNS.bit_length(), scene.kind, scene.moments.tobytes(), scene.omega0.tobytes(), loads, settings.rtol, settings.atol, settings.step,
+    return (_numba_ready(), _expected_runs().bit_length(), scene.kind, scene.moments.tobytes(), scene.omega0.tobytes(), loads, settings.rtol, settings.atol, settings.step,
             settings.order, settings.max_steps, t.shape[0], float(t[0]), float(t[-1]))
 
 
@@ -139,12 +153,17 @@ def _numba_ready() -> bool:
 
 def _kernel_ready(name: str) -> bool:
     """Has ``name``'s kernel been compiled or loaded in this process (any specialisation)?"""
+    if name in _READY:
+        return True
     module_name, attr = _KERNELS.get(name, ("", ""))
     module = sys.modules.get(module_name)
     if module is None:
         return False
-    signatures = getattr(getattr(module, attr, None), "signatures", None)
-    return True if signatures is None else bool(signatures)
+    signatures = getattr(getattr(module, attr, None), "signatures", None)  # numba builds this list on each call
+    ready = True if signatures is None else bool(signatures)
+    if ready:
+        _READY.add(name)
+    return ready
 
 
 def with_first_use(estimates: list[cost.Estimate]) -> list[cost.Estimate]:
@@ -152,7 +171,7 @@ def with_first_use(estimates: list[cost.Estimate]) -> list[cost.Estimate]:
     among the runs the process is expected to make: after k runs, ~k more (a sweep or a loop over
     ``simulate`` soon makes loading the kernel worth it; a single ``rotlab run`` does not)."""
     ready = _numba_ready()
-    share = 1.0 / max(_RUNS, 1)
+    share = 1.0 / _expected_runs()
     out = []
     for e in estimates:
         if e.method != "exact" and not _kernel_ready(e.method):

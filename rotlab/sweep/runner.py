@@ -91,10 +91,14 @@ def outcome_of(case: Case, traj, seconds: float) -> CaseOutcome:
     )
 
 
-def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError) -> CaseOutcome:
-    """One case, never raising (importable by Dask workers)."""
+def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError, expected_runs: int = 0) -> CaseOutcome:
+    """One case, never raising (importable by Dask workers).  ``expected_runs``: the cases this
+    worker process is expected to run (``auto`` shares a kernel's loading among them)."""
     from rotlab import api
+    from rotlab.methods.choose import expect_runs
 
+    if expected_runs:
+        expect_runs(expected_runs)
     if isinstance(scenario, InputError):
         return CaseOutcome(case.index, case.values, "error", message=str(scenario))
     started = time.perf_counter()
@@ -175,8 +179,10 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
 
         run, how = run_on_dask(run_sweep_case, tasks, dask_address, retries=retries), f"Dask cluster at {dask_address}"
     else:
-        run = run_tasks(run_sweep_case, tasks, jobs, timeout=timeout, retries=retries)
-        how = f"{min(jobs, len(tasks))} local worker process{'es' if min(jobs, len(tasks)) > 1 else ''}"
+        workers = max(1, min(jobs, len(tasks)))
+        per_worker = -(-len(tasks) // workers)  # each worker process runs about this many cases
+        run = run_tasks(run_sweep_case, [(*task, per_worker) for task in tasks], jobs, timeout=timeout, retries=retries)
+        how = f"{workers} local worker process{'es' if workers > 1 else ''}"
     return SweepRun(collect_outcomes(p, run), how, run.stopped)
 
 
