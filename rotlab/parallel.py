@@ -7,13 +7,14 @@ kernel to kill it when the main process dies (a ``forkserver`` child is the fork
 outlives a killed main process while any worker holds its pipe).  Each worker imports rotlab
 once (``preload``) and then runs task after task.
 
-``run_tasks`` hands each worker one task over its own pipe and waits on every busy worker's pipe
-and process sentinel at once:
+``run_tasks`` hands each worker one task over its own pipe — and, while tasks are short (under
+``PREFETCH_BELOW``), the next one too, which the worker starts without waiting for the main
+process — and waits on every busy worker's pipe and process sentinel at once:
 
 * a result arrives → reported through ``on_end`` at once (a line per finished case);
 * the worker process dies (``kill -9``, out of memory, a crash in compiled code) → that task
-  ends as ``worker died (…)`` (or is retried, ``retries`` times), a fresh worker takes its place
-  and every other task goes on;
+  ends as ``worker died (…)`` (or is retried, ``retries`` times), the task queued behind it (not
+  started) goes back to the queue, a fresh worker takes its place and every other task goes on;
 * a task exceeds ``timeout`` seconds → its worker is killed, the task ends as ``timed out``;
 * SIGINT or SIGTERM in the main process → pending tasks are cancelled, workers terminated
   (none is left behind), and ``run_tasks`` returns what finished with ``stopped`` set to the
@@ -43,6 +44,7 @@ from typing import Any, Callable, Sequence
 RUN_MODULES = ("rotlab.api", "rotlab.checks", "rotlab.recording.writer")  # what running a case imports
 STARTED = "started"  # what a worker sends when it begins a task
 KILL_GRACE = 2.0  # s between SIGTERM and SIGKILL when workers are stopped
+PREFETCH_BELOW = 0.05  # s: while tasks take less, each worker is handed its next task in advance (``_Pool``)
 PR_SET_PDEATHSIG = 1
 
 
@@ -96,8 +98,13 @@ def run_tasks(fn: Callable[..., Any], tasks: Sequence[tuple], jobs: int, *, time
             while pending or pool.busy():
                 while pending and pool.has_room():
                     index, attempt = pending.popleft()
-                    pool.start(index, attempt, tasks[index])
+                    if not pool.start(index, attempt, tasks[index]):  # its worker has died: the wait below says so
+                        pending.appendleft((index, attempt))
+                        break
                 for worker, event in pool.wait(timeout):
+                    if worker.task is None:  # died while holding no task (killed from outside): replaced
+                        pool.discard(worker)
+                        continue
                     index, attempt, seconds, pid = worker.task, worker.attempt, worker.elapsed(time.monotonic()), worker.process.pid
                     if event == "result":
                         status, payload = worker.result
@@ -105,16 +112,16 @@ def run_tasks(fn: Callable[..., Any], tasks: Sequence[tuple], jobs: int, *, time
                             finish(TaskEnd(index, payload, None, attempt, seconds, pid))
                         else:
                             finish(TaskEnd(index, None, payload, attempt, seconds, pid))
-                        worker.task = None
-                    elif event == "died":
-                        pool.discard(worker)
+                        pool.done(worker, seconds)
+                        continue
+                    pending.extendleft(reversed(pool.discard(worker)))  # the tasks queued behind it never started
+                    if event == "died":
                         how = f"worker died ({_exit_text(worker.process.exitcode)})"
                         if attempt <= retries:
                             pending.appendleft((index, attempt + 1))
                         else:
                             finish(TaskEnd(index, None, how + _attempts_text(attempt), attempt, seconds, pid))
                     else:  # timed out
-                        pool.discard(worker)
                         finish(TaskEnd(index, None, f"timed out after {timeout:g} s (per-case --timeout)", attempt, seconds, pid))
             pool.close(kill=False)
         except Stopped as stop:
@@ -175,22 +182,48 @@ class signals_raise_stopped:
         raise Stopped(signum)
 
 
+@dataclass
+class _Sent:
+    """A task handed to a worker: the first in its queue runs, the next waits in the pipe."""
+
+    index: int
+    attempt: int
+    sent: float  # time.monotonic() when sent
+    started: float | None = None  # when the worker began it (its STARTED message)
+
+
 class _Worker:
     def __init__(self, fn: Callable[..., Any], preload: tuple[str, ...]) -> None:
         self.conn, child = context().Pipe(duplex=True)
         self.process = context().Process(target=_serve, args=(fn, child, preload, os.getpid()), daemon=True)
         self.process.start()
         child.close()
-        self.task: int | None = None
-        self.attempt = 0
-        self.started: float | None = None  # when the worker began the task (None: not yet)
-        self.sent = 0.0
+        self.queue: deque[_Sent] = deque()  # tasks sent, in order: the head is running (or about to)
         self.result: Any = None
+        self.told = False  # asked to stop (``tell_to_stop``)
+
+    @property
+    def task(self) -> int | None:
+        """The task the worker runs (None: idle)."""
+        return self.queue[0].index if self.queue else None
+
+    @property
+    def attempt(self) -> int:
+        return self.queue[0].attempt
+
+    @property
+    def started(self) -> float | None:
+        return self.queue[0].started if self.queue else None
 
     def elapsed(self, now: float) -> float:
-        return now - (self.started if self.started is not None else self.sent)
+        head = self.queue[0]
+        return now - (head.started if head.started is not None else head.sent)
 
-    def stop(self, kill: bool) -> None:
+    def tell_to_stop(self, kill: bool) -> None:
+        """SIGTERM (``kill``), or ask the worker to return after its tasks; does not wait."""
+        if self.told:
+            return
+        self.told = True
         try:
             if kill:
                 self.process.terminate()
@@ -198,6 +231,9 @@ class _Worker:
                 self.conn.send(None)  # finish: the worker returns
         except (OSError, ValueError):
             pass
+
+    def stop(self, kill: bool) -> None:
+        self.tell_to_stop(kill)
         self.process.join(KILL_GRACE)
         if self.process.is_alive():
             self.process.kill()
@@ -206,37 +242,64 @@ class _Worker:
 
 
 class _Pool:
+    """Workers, each holding its running task and — while tasks are short — the next one, so
+    that it starts that one as soon as it sends a result instead of waiting for the main process
+    (a round trip of ~0.3 ms, as long as a short case itself).  A queued task has not started:
+    a worker's death or time-out puts it back in the queue without costing it an attempt."""
+
     def __init__(self, fn: Callable[..., Any], size: int, preload: tuple[str, ...]) -> None:
         self.fn, self.size, self.preload = fn, size, preload
         self.workers: list[_Worker] = []
+        self.recent: deque[float] = deque(maxlen=8)  # seconds of the last tasks that finished
 
     def busy(self) -> bool:
-        return any(w.task is not None for w in self.workers)
+        return any(w.queue for w in self.workers)
+
+    def depth(self) -> int:
+        """Tasks a worker may hold: 2 once the recent tasks all took under ``PREFETCH_BELOW`` s
+        (a long task would keep the next one waiting while another worker is idle), else 1."""
+        short = len(self.recent) == self.recent.maxlen and max(self.recent) < PREFETCH_BELOW
+        return 2 if short else 1
 
     def has_room(self) -> bool:
-        return any(w.task is None for w in self.workers) or len(self.workers) < self.size
+        return len(self.workers) < self.size or any(len(w.queue) < self.depth() for w in self.workers)
 
-    def start(self, index: int, attempt: int, args: tuple) -> None:
-        worker = next((w for w in self.workers if w.task is None), None)
-        if worker is None:
+    def start(self, index: int, attempt: int, args: tuple) -> bool:
+        """Hand the task to the least busy worker (a new one while there are fewer than ``size``);
+        False when that worker turns out to have died (its pipe is closed): the task was not sent."""
+        if len(self.workers) < self.size and all(w.queue for w in self.workers):
             worker = _Worker(self.fn, self.preload)
             self.workers.append(worker)
-        worker.task, worker.attempt, worker.started, worker.sent = index, attempt, None, time.monotonic()
-        worker.conn.send((index, args))
+        else:
+            worker = min(self.workers, key=lambda w: len(w.queue))
+        try:
+            worker.conn.send((index, args))
+        except OSError:  # BrokenPipeError: it died running its task (or idle); ``wait`` reports it
+            return False
+        worker.queue.append(_Sent(index, attempt, time.monotonic()))
+        return True
 
-    def discard(self, worker: _Worker) -> None:
+    def done(self, worker: _Worker, seconds: float) -> None:
+        """The worker's running task has ended; the next in its queue is now its running task."""
+        worker.queue.popleft()
+        self.recent.append(seconds)
+
+    def discard(self, worker: _Worker) -> list[tuple[int, int]]:
+        """Stop ``worker`` (dead or timed out); returns its queued tasks that never started."""
         self.workers.remove(worker)
         worker.stop(kill=True)
+        return [(sent.index, sent.attempt) for sent in list(worker.queue)[1:]]
 
     def wait(self, timeout: float | None) -> list[tuple[_Worker, str]]:
         """Block until a busy worker has a result, dies, or passes its deadline."""
-        busy = [w for w in self.workers if w.task is not None]
+        busy = [w for w in self.workers if w.queue]
         running = [w.started for w in busy if w.started is not None]
         limit = None
         if timeout is not None and running:
             limit = max(0.0, min(running) + timeout - time.monotonic())
-        wait([obj for w in busy for obj in (w.conn, w.process.sentinel)], limit)
-        events = []
+        idle = [w.process.sentinel for w in self.workers if not w.queue]  # an idle worker can die too
+        wait([obj for w in busy for obj in (w.conn, w.process.sentinel)] + idle, limit)
+        events = [(w, "died") for w in self.workers if not w.queue and not w.process.is_alive()]
         for w in busy:
             result = self._receive(w)
             if result:
@@ -250,24 +313,23 @@ class _Pool:
 
     @staticmethod
     def _receive(w: _Worker) -> bool:
-        """Read what ``w`` sent: "started" marks the task's start; True when its result came
-        (a result sent just before the worker died still counts)."""
+        """Read what ``w`` sent: "started" marks its running task's start; True when that task's
+        result came (a result sent just before the worker died still counts)."""
         while w.conn.poll():
             try:
                 message = w.conn.recv()
             except (EOFError, OSError):
                 return False
             if message == STARTED:
-                w.started = time.monotonic()
+                w.queue[0].started = time.monotonic()
                 continue
             w.result = message
             return True
         return False
 
     def close(self, kill: bool) -> None:
-        for worker in self.workers:
-            if kill:
-                worker.process.terminate()  # all at once, then wait for each
+        for worker in self.workers:  # all at once (each takes ~0.2 s to exit), then wait for each
+            worker.tell_to_stop(kill)
         for worker in self.workers:
             worker.stop(kill)
         self.workers = []
@@ -288,8 +350,10 @@ def _serve(fn: Callable[..., Any], conn: Connection, preload: tuple[str, ...], p
             item = conn.recv()
         except (EOFError, OSError):
             return
-        if item is None:
-            return
+        if item is None:  # done: every task's files are finished; skip the interpreter's teardown (~0.2 s)
+            from rotlab.__main__ import leave
+
+            leave(0)
         index, args = item
         conn.send(STARTED)
         try:

@@ -271,3 +271,31 @@ def test_kill_9_of_the_main_process_orphans_no_worker(tmp_path, suite, batches):
     batch.proc.kill()
     batch.proc.wait()
     _assert_gone(workers)
+
+
+@pytest.mark.parametrize("blocker, timeout, failure", [
+    ((os._exit, 7), None, "worker died (exit code 7)"),
+    ((time.sleep, 30.0), 1.0, "timed out after 1 s (per-case --timeout)"),
+])
+def test_the_task_queued_behind_a_dying_or_stuck_one_runs_once(blocker, timeout, failure, monkeypatch):
+    """Short tasks are handed out two at a time (the next one waits in the worker's pipe, so the
+    worker never waits for the main process): when the running task kills its worker or times
+    out, the queued one has not started; it goes back to the queue and runs once, on a new worker."""
+    from rotlab import parallel
+
+    held = []
+    start = parallel._Pool.start
+
+    def spy(pool, index, attempt, args):
+        sent = start(pool, index, attempt, args)
+        held.append(max(len(w.queue) for w in pool.workers))
+        return sent
+
+    monkeypatch.setattr(parallel._Pool, "start", spy)
+    tasks = [(math.sqrt, float(i * i)) for i in range(20)] + [blocker] + [(math.sqrt, float(i * i)) for i in range(20, 40)]
+    run = run_tasks(operator.call, tasks, jobs=1, timeout=timeout, preload=())
+    ends = {e.index: e for e in run.ends}
+    assert max(held) == 2  # the worker held a queued task
+    assert ends[20].failure == failure
+    assert sorted(ends) == list(range(41)) and all(e.attempts == 1 for e in ends.values())
+    assert [ends[i].result for i in range(41) if i != 20] == [float(i) for i in range(40)]
