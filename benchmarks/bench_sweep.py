@@ -1,0 +1,109 @@
+"""What a case of a sweep costs, and where it goes: a sweep of short free-body cases (201 samples
+over 10 s, method = "auto", rtol 1e-10; ω₀ drawn per case), run end to end by `rotlab sweep` in
+a child process, beside the parts of one case measured in this process:
+
+* solve: ``Method.solve`` of the case's scene with the settings auto chose (the integration);
+* simulate: ``rotlab.simulate(scenario)`` (scene, auto's choice, solve, trajectory);
+* outcome: the sweep's per-case report (checks, observables, decimated series);
+* round trip: a worker's task that does nothing, handed over and answered (IPC);
+* sweep: the whole `rotlab sweep` wall time (start-up, validation, workers, results files and
+  the comparison recording included) divided by the number of cases.
+
+    python benchmarks/bench_sweep.py [--cases 2000] [--jobs 1 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import operator
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+CONFIG = """title = "free-body sweep (bench_sweep.py)"
+[body]
+principal_moments = [1.0, 2.0, 3.0]
+[initial]
+omega = [0.3, 1.0, 0.2]
+[time]
+end = 10.0
+samples = 201
+[solver]
+method = "auto"
+rtol = 1e-10
+[sweep]
+seed = 1
+samples = {cases}
+[sweep.parameters]
+"initial.omega[0]" = {{ uniform = [0.1, 0.5] }}
+"initial.omega[2]" = {{ uniform = [-0.3, 0.3] }}
+"""
+
+
+def _median_us(fn, items) -> float:
+    times = []
+    for item in items:
+        started = time.perf_counter()
+        fn(item)
+        times.append(time.perf_counter() - started)
+    return statistics.median(times) * 1e6
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--cases", type=int, default=2000)
+    parser.add_argument("--jobs", type=int, nargs="+", default=[1, 2])
+    args = parser.parse_args()
+
+    import rotlab
+    from rotlab.api import _plan
+    from rotlab.methods.choose import expect_runs
+    from rotlab.parallel import run_tasks
+    from rotlab.scene.scene import build_scene
+    from rotlab.sweep.runner import outcome_of, plan
+
+    with tempfile.TemporaryDirectory() as tmp:
+        config = Path(tmp) / "free_sweep.toml"
+        config.write_text(CONFIG.format(cases=args.cases), encoding="utf-8")
+        sweep = {}
+        for jobs in args.jobs:
+            started = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "rotlab", "sweep", str(config), "-o", str(Path(tmp) / f"out{jobs}"), "-j", str(jobs)],
+                           check=True, capture_output=True)
+            sweep[jobs] = (time.perf_counter() - started) / args.cases * 1e6
+
+        p = plan(config)
+        expect_runs(args.cases)  # as a sweep worker is told
+        for scenario in p.scenarios[-20:]:
+            rotlab.simulate(scenario)  # kernels loaded
+        third = min(len(p.scenarios), 1500) // 3  # three sets of cases, none seen before by auto's cache
+        planned = []
+        for scenario in p.scenarios[:third]:
+            scene = build_scene(scenario)
+            chosen, _, settings, t = _plan(scene)
+            planned.append((chosen, scene, t, settings))
+        methods = sorted({chosen.name for chosen, *_ in planned})
+        solve = _median_us(lambda item: item[0].solve(item[1], item[2], item[3], None), planned)
+        simulate = _median_us(lambda scenario: rotlab.simulate(scenario), p.scenarios[third:2 * third])
+        cases = list(zip(p.cases[2 * third:3 * third], p.scenarios[2 * third:3 * third]))
+        outcome = _median_us(lambda pair: outcome_of(pair[0], rotlab.simulate(pair[1]), 0.0), cases) - simulate
+        stamps: list[float] = []
+        begun = time.perf_counter()
+        run_tasks(operator.pos, [(1,)] * 2000, 1, preload=(), on_end=lambda end: stamps.append(time.perf_counter() - begun))
+        tail = stamps[len(stamps) // 4:]
+        round_trip = (tail[-1] - tail[0]) / (len(tail) - 1) * 1e6
+
+    print(f"== a sweep of {args.cases:,} free-body cases (201 samples, auto at rtol 1e-10: {', '.join(methods)}), µs per case")
+    print(f"   {'part':44s} {'µs':>8s}   {'× solve':>8s}")
+    rows = [("solve (Method.solve, the integration)", solve), ("simulate (scene, choice, solve, trajectory)", simulate),
+            ("outcome (checks, observables, series)", outcome), ("round trip of an empty task (1 worker)", round_trip)]
+    rows += [(f"rotlab sweep -j {jobs}, wall / cases", us) for jobs, us in sweep.items()]
+    for name, us in rows:
+        print(f"   {name:44s} {us:8.0f}   {us / solve:8.1f}")
+
+
+if __name__ == "__main__":
+    main()
