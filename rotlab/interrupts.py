@@ -7,7 +7,7 @@ ctypes callback (llvmlite calls one while numba compiles or loads a kernel) swal
 ("Exception ignored on calling ctypes callback function") and the run goes on as if nothing had
 happened; and an interrupt that ends code run from source text (``exec``/``eval`` of a string)
 is marked unhandled even when caught, so the interpreter would end by the signal itself (exit −2)
-after rotlab has chosen exit 130: the executable ends with ``os._exit`` (``rotlab.__main__.leave``),
+after rotlab has chosen exit 130: the executable ends with ``os._exit`` (``rotlab.ending.leave``),
 which that mark cannot reach.
 
 The executable therefore holds these signals over the two phases — imports and numba's compiler

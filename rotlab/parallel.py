@@ -351,7 +351,7 @@ def _serve(fn: Callable[..., Any], conn: Connection, preload: tuple[str, ...], p
         except (EOFError, OSError):
             return
         if item is None:  # done: every task's files are finished; skip the interpreter's teardown (~0.2 s)
-            from rotlab.__main__ import leave
+            from rotlab.ending import leave
 
             leave(0)
         index, args = item

@@ -96,8 +96,8 @@ def test_the_executable_ignores_a_late_ctrl_c_while_it_shuts_down():
     import subprocess
     import sys
 
-    code = ("import signal, sys\nimport rotlab.__main__ as executable\nsys.argv = ['rotlab', 'validate', 'missing.toml']\n"
-            "executable.leave = lambda code: print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN, code)\n"
+    code = ("import signal, sys\nimport rotlab.__main__ as executable, rotlab.ending as ending\nsys.argv = ['rotlab', 'validate', 'missing.toml']\n"
+            "ending.leave = lambda code: print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN, code)\n"
             "executable.entry()\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip().splitlines()[-1] == "True 2", done.stdout + done.stderr
