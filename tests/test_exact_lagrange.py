@@ -27,7 +27,7 @@ import warnings
 import mpmath as mp
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from rotlab.core import quaternion as quat
@@ -480,6 +480,7 @@ wide = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
 
 
 @settings(max_examples=40, deadline=None)
+@example(A=1.0, C=1.0, mgl=-1.0, omega0=[1.0, 0.0, 0.0], q0=[0.0, 0.001953125, 0.0, 1.7296216587159435e-28], t=[0.0])
 @given(
     A=st.floats(1e-3, 1e3),
     C=st.floats(1e-3, 1e3),

@@ -76,6 +76,8 @@ __all__ = ["lagrange_top_solution"]
 _MC_MIN = 1e-150  # 1 − m floor: m = 1 (infinite period) as the limit of the periodic motion
 _E_MIN = Decimal("1e-50")  # nutation width Δ, closest approach 1 ∓ u to a vertical: 0 below this
 _DIGITS = 40  # decimal precision of the set-up
+_EPS = 2.0**-53  # unit roundoff of the evaluation (float64)
+_NEAR_PASS = 1e-20  # |h| below this: at a pass through the vertical taken as exact (e < 1e-50)
 _PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944592")
 _EXACT = Context(prec=60)
 _TWO_PI = (2.0 * math.pi, float(_EXACT.subtract(_EXACT.multiply(2, _PI), Decimal(2.0 * math.pi))))  # hi + lo
@@ -448,6 +450,7 @@ class _Side:
     one_minus_n_star: float = 1.0
     rj_complete: float = 0.0
     shift: int = 0
+    dropped: float = 0.0  # the coefficient taken as 0 for a pass within ~1e-25 of the vertical (e < 1e-50)
 
 
 def _side(side: int, coef, e, odd: bool, delta, lam, m, mc, K) -> tuple[_Side, Decimal]:
@@ -456,10 +459,11 @@ def _side(side: int, coef, e, odd: bool, delta, lam, m, mc, K) -> tuple[_Side, D
     1/(e + Δ sn²) = m/(e m + Δ) + [(1 − m)Δ/(e m + Δ)] / (c₀ − (Δ + e m) sn²(w − K)).
     A pass with e < 1e-50 (within ~1e-25 of the vertical) is taken as through it (coefficient 0,
     signed amplitude: the same motion to ~1e-25, and no Carlson argument below float range)."""
+    dropped = 0.0
     if e < _E_MIN:
-        e, coef = Decimal(0), 0
+        e, coef, dropped = Decimal(0), 0, float(coef)
     if coef == 0:
-        return _Side(side, 0.0, float(e), odd), Decimal(0)
+        return _Side(side, 0.0, float(e), odd, dropped=dropped), Decimal(0)
     c0 = e + delta
     n, one_minus_n = delta / c0, e / c0
     if odd:
@@ -599,23 +603,39 @@ def _periodic(mot: _Motion, sd: _Side, smp: _Samples, ref: _Samples) -> np.ndarr
 
 def _velocity_factor(mot: _Motion, h_m, h_p, ratio_m, ratio_p, udot, sn) -> np.ndarray:
     """N / (2 h₊ h₋), N = (b − a u) − i u̇, so that q + i p = e^{i(σ−δ)} N/(2 h₊ h₋), in whichever of
-    three equal forms has the smallest rounding bound at the sample (none dividing by < 1e-100):
+    three equal forms has the smallest error bound at the sample (none dividing by < 1e-100):
         [(d − i u̇)/(2h₋) + a h₋] / h₊   (near θ = 0),   [(s − i u̇)/(2h₊) − a h₊] / h₋   (near θ = π),
-        [(b − a u₀) − a (u − u₀) − i u̇] / (2 h₊ h₋)   (elsewhere: no O(a) cancellation, fast tops)."""
+        [(b − a u₀) − a (u − u₀) − i u̇] / (2 h₊ h₋)   (elsewhere: no O(a) cancellation, fast tops).
+    Bound = (ε · size of the numerator + what a dropped coefficient (a pass within ~1e-25 of the
+    vertical taken as through it) leaves out of it, |k|/(2|h|)) / |denominator|: a top that passes
+    that close to θ = 0 and turns near θ = π gets the second form there, not the first divided by
+    h₊ ~ 1e-25."""
     a = mot.a
+    minus, plus = mot.sides
     x = mot.x_start + mot.sign_u * mot.delta * sn * sn  # u − u₀
     numerators = (ratio_m + a * h_m, ratio_p - a * h_p, (mot.horiz0 - a * x) - 1j * udot)
-    sizes = (
-        np.abs(ratio_m) + np.abs(a * h_m),
-        np.abs(ratio_p) + np.abs(a * h_p),
-        abs(mot.horiz0) + np.abs(a * x) + np.abs(udot),
-    )
-    dens = (h_p, h_m, 2.0 * h_p * h_m)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # unchosen forms may blow up
+        errors = (
+            _EPS * (np.abs(ratio_m) + np.abs(a * h_m)) + _dropped_error(minus, h_m),
+            _EPS * (np.abs(ratio_p) + np.abs(a * h_p)) + _dropped_error(plus, h_p),
+            _EPS * (abs(mot.horiz0) + np.abs(a * x) + np.abs(udot)),
+        )
+        dens = (h_p, h_m, 2.0 * h_p * h_m)
         forms = [num / den for num, den in zip(numerators, dens)]
-        bounds = [np.where(np.abs(d) > 1e-100, size / np.abs(d), np.inf) for size, d in zip(sizes, dens)]
+        bounds = [np.where(np.abs(d) > 1e-100, err / np.abs(d), np.inf) for err, d in zip(errors, dens)]
     best = np.argmin(np.nan_to_num(np.stack(bounds), nan=np.inf), axis=0)
     return np.choose(best, forms)
+
+
+def _dropped_error(sd: _Side, h):
+    """|k|/(2|h|): what the ratio (k − i u̇)/(2h) misses where k was dropped, away from that
+    side's vertical (|h| ≥ ``_NEAR_PASS``); near it the passage's own limit is the model (0 there,
+    and where nothing was dropped)."""
+    if sd.dropped == 0.0:
+        return 0.0
+    magnitude = np.abs(h)
+    far = magnitude >= _NEAR_PASS
+    return np.where(far, abs(sd.dropped) / (2.0 * np.where(far, magnitude, 1.0)), 0.0)
 
 
 def _half_angles(mot: _Motion, smp: _Samples, ref: _Samples, dt):
@@ -649,7 +669,7 @@ def _initial_angles(st: _State, sides: tuple[_Side, _Side], h_m: float, h_p: flo
     sigma0 += math.pi if h_p < 0.0 else 0.0
     delta0 += math.pi if h_m < 0.0 else 0.0
     w0 = complex(float(st.q), float(st.p))
-    near = [(abs(h), sd.side) for sd, h in zip(sides, (h_m, h_p)) if sd.e == 0.0 and abs(h) < 1e-20]
+    near = [(abs(h), sd.side) for sd, h in zip(sides, (h_m, h_p)) if sd.e == 0.0 and abs(h) < _NEAR_PASS]
     if near and w0 != 0 and factor != 0:
         turn = float(np.angle(w0) - np.angle(factor))  # σ₀ − δ₀
         if min(near)[1] < 0:
