@@ -618,7 +618,7 @@ def _velocity_factor(mot: _Motion, h_m, h_p, ratio_m, ratio_p, udot, sn) -> np.n
         errors = (
             _EPS * (np.abs(ratio_m) + np.abs(a * h_m)) + _dropped_error(minus, h_m),
             _EPS * (np.abs(ratio_p) + np.abs(a * h_p)) + _dropped_error(plus, h_p),
-            _EPS * (abs(mot.horiz0) + np.abs(a * x) + np.abs(udot)),
+            _EPS * (abs(mot.horiz0) + abs(a) * (abs(mot.x_start) + mot.delta * sn * sn) + np.abs(udot)),  # x: a difference
         )
         dens = (h_p, h_m, 2.0 * h_p * h_m)
         forms = [num / den for num, den in zip(numerators, dens)]
