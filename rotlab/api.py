@@ -117,6 +117,7 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
             started = time.perf_counter()
             solution = chosen.solve(scene, t, settings, progress)
             seconds = time.perf_counter() - started - stream.seconds  # integration + its compiling
+        compiling.released()  # nothing compiles now; a compile cut short by Ctrl-C never announced its end
         final = _stats(chosen, reason, solution, seconds, compiling.seconds)
         vars(stats).update(vars(final))  # the chunks hold this object: the report sees the final figures
         stats.details = {**stats.details, "visual series": f"every {stride} samples" if stride > 1 else "every sample"}

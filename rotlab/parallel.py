@@ -39,12 +39,14 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
+from multiprocessing.reduction import ForkingPickler
 from typing import Any, Callable, Sequence
 
 RUN_MODULES = ("rotlab.api", "rotlab.checks", "rotlab.recording.writer")  # what running a case imports
 STARTED = "started"  # what a worker sends when it begins a task
 KILL_GRACE = 2.0  # s between SIGTERM and SIGKILL when workers are stopped
 PREFETCH_BELOW = 0.05  # s: while tasks take less, each worker is handed its next task in advance (``_Pool``)
+PREFETCH_BYTES = 1 << 15  # ... if it pickles to no more than this (a pipe holds it without blocking)
 PR_SET_PDEATHSIG = 1
 
 
@@ -98,7 +100,7 @@ def run_tasks(fn: Callable[..., Any], tasks: Sequence[tuple], jobs: int, *, time
             while pending or pool.busy():
                 while pending and pool.has_room():
                     index, attempt = pending.popleft()
-                    if not pool.start(index, attempt, tasks[index]):  # its worker has died: the wait below says so
+                    if not pool.start(index, attempt, tasks[index]):  # not now (see _Pool.start): after the wait below
                         pending.appendleft((index, attempt))
                         break
                 for worker, event in pool.wait(timeout):
@@ -265,15 +267,20 @@ class _Pool:
         return len(self.workers) < self.size or any(len(w.queue) < self.depth() for w in self.workers)
 
     def start(self, index: int, attempt: int, args: tuple) -> bool:
-        """Hand the task to the least busy worker (a new one while there are fewer than ``size``);
-        False when that worker turns out to have died (its pipe is closed): the task was not sent."""
+        """Hand the task to the least busy worker (a new one while there are fewer than ``size``).
+        False when it was not sent: that worker is busy and the task is larger than
+        ``PREFETCH_BYTES`` (sent while the worker writes a large result, both would block), or the
+        worker turns out to have died (its pipe is closed; ``wait`` reports it)."""
         if len(self.workers) < self.size and all(w.queue for w in self.workers):
             worker = _Worker(self.fn, self.preload)
             self.workers.append(worker)
         else:
             worker = min(self.workers, key=lambda w: len(w.queue))
+        payload = ForkingPickler.dumps((index, args))  # what Connection.send writes; recv() reads it back
+        if worker.queue and len(payload) > PREFETCH_BYTES:
+            return False
         try:
-            worker.conn.send((index, args))
+            worker.conn.send_bytes(payload)
         except OSError:  # BrokenPipeError: it died running its task (or idle); ``wait`` reports it
             return False
         worker.queue.append(_Sent(index, attempt, time.monotonic()))

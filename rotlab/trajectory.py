@@ -52,8 +52,9 @@ class Trajectory:
     """Time series of a run.  Vectors: ``omega``, ``L_body`` body frame; ``L_space`` space frame;
     ``quaternion`` body → space, scalar first (as integrated: |Λ| − 1 is in ``invariants``).
 
-    Built from the integrated state (principal frame); every other series is computed on first
-    use and kept, so a call that needs only Λ and ω does not pay for the energies and drifts."""
+    Built from the integrated state (principal frame, kept private: the series handed out are
+    copies); every other series is computed on first use and kept, so a call that needs only Λ
+    and ω does not pay for the energies and drifts."""
 
     scene: Scene
     stats: RunStats
@@ -71,10 +72,9 @@ class Trajectory:
         self.__dict__.update(series or {})  # read by the cached properties below before they compute
 
     @cached_property
-    @_near_blow_up
     def quaternion(self) -> np.ndarray:  # (N, 4)
-        q_p = self._state[:, 0:4]
-        return q_p if self.scene.is_principal else quat.multiply_array(q_p, quat.conjugate_array(self.scene.axes_quaternion))
+        q = self._user_quaternion()
+        return q.copy() if self.scene.is_principal else q
 
     @cached_property
     def omega(self) -> np.ndarray:  # (N, 3) rad/s, body
@@ -98,7 +98,7 @@ class Trajectory:
 
     @cached_property
     def work(self) -> np.ndarray | None:  # (N,) J, None without non-conservative loads
-        return self._state[:, 7] if self.scene.has_work else None
+        return self._state[:, 7].copy() if self.scene.has_work else None
 
     @cached_property
     def total(self) -> np.ndarray:  # (N,) J, T + V
@@ -106,22 +106,30 @@ class Trajectory:
 
     @cached_property
     def invariants(self) -> dict[str, np.ndarray]:  # relative drift, see module docstring
-        quantities = self._quantities
-        reference = self._reference if self._reference is not None or not len(self.t) else _reference(quantities)
-        return _drifts(self.scene, self._state[:, 0:4], quantities[1], quantities[2], quantities[6], reference)
+        return self._quantities[7]
 
     @cached_property
     def euler_angles(self) -> np.ndarray | None:  # (N, 3) rad (ψ, θ, φ), when asked for
-        return _continuous_euler_angles(self.quaternion, self._previous_angles) if self._euler else None
+        return _continuous_euler_angles(self._user_quaternion(), self._previous_angles) if self._euler else None
 
     @cached_property
     def _quantities(self):
-        """(unit Λ_P, L_P, L_space, T, V, T + V, T + V − W): see ``_quantities``."""
-        return _quantities(self.scene, self._state)
+        """(unit Λ_P, L_P, L_space, T, V, T + V, T + V − W, drifts): see ``_quantities``; the drifts
+        are taken with them, so that nothing a caller does to the series handed out changes them."""
+        quantities = _quantities(self.scene, self._state)
+        reference = self._reference if self._reference is not None or not len(self.t) else _reference(quantities)
+        return (*quantities, _drifts(self.scene, self._state[:, 0:4], quantities[1], quantities[2], quantities[6], reference))
+
+    @_near_blow_up
+    def _user_quaternion(self) -> np.ndarray:
+        q_p = self._state[:, 0:4]
+        return q_p if self.scene.is_principal else quat.multiply_array(q_p, quat.conjugate_array(self.scene.axes_quaternion))
 
     @_near_blow_up
     def _to_user(self, rows: np.ndarray) -> np.ndarray:
-        return rows if self.scene.is_principal else _rows_times(rows, self.scene.axes.T)
+        """``rows`` in the user's body frame, never a view of the state: the series computed later
+        come from the state, so a caller editing ω in place must not change them."""
+        return rows.copy() if self.scene.is_principal else _rows_times(rows, self.scene.axes.T)
 
     def max_drift(self) -> dict[str, float]:
         """max |drift| over the run, per invariant."""

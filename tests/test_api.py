@@ -94,3 +94,21 @@ def test_readme_python_example_runs_as_written(tmp_path, monkeypatch, capsys):
     printed = capsys.readouterr().out
     assert "<Trajectory lagrange scene" in printed and "rad/s" in printed and "stopped: step budget" in printed
     assert (tmp_path / "top.rrd").exists()
+
+
+def test_editing_a_series_in_place_changes_no_other_series():
+    """The series are computed on first use from the integrated state, which the trajectory keeps
+    to itself: zeroing ω or Λ, or L, in place leaves the energies, drifts and Euler angles as a
+    fresh run has them (found by review: the kinetic energy followed an edited ω)."""
+    fresh = rotlab.simulate(CONFIGS / "general.toml", duration=0.5, overrides={"output.euler_angles": True})
+    for config in ("lagrange.toml", "general.toml"):  # principal axes given / an inertia tensor
+        reference = rotlab.simulate(CONFIGS / config, duration=0.5, overrides={"output.euler_angles": True})
+        edited = rotlab.simulate(CONFIGS / config, duration=0.5, overrides={"output.euler_angles": True})
+        edited.omega[:] = 0.0
+        edited.quaternion[:] = 2.0
+        edited.L_body[:] = 0.0
+        assert np.array_equal(edited.kinetic, reference.kinetic) and np.array_equal(edited.L_space, reference.L_space)
+        assert np.array_equal(edited.euler_angles, reference.euler_angles)
+        edited.L_space[:] = 0.0
+        assert edited.max_drift() == reference.max_drift()
+    assert np.array_equal(fresh.omega, rotlab.simulate(CONFIGS / "general.toml", duration=0.5).omega)

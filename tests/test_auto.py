@@ -183,3 +183,7 @@ def test_sweep_workers_are_told_their_share_of_the_cases(monkeypatch):
     monkeypatch.setattr(runner, "run_tasks", record)
     runner.run_cases(p, jobs=2)
     assert {task[2] for task in seen["tasks"]} == {-(-len(p.cases) // 2)}  # 12 cases on 2 workers: 6 each
+    runner.run_cases(p, jobs=2, timeout=0.3)
+    # not with a per-case --timeout: every new worker's first case would load the kernel, run out of
+    # time, and its replacement likewise (found by review: 184 of 184 cases timed out)
+    assert {task[2] for task in seen["tasks"]} == {0}

@@ -299,3 +299,15 @@ def test_the_task_queued_behind_a_dying_or_stuck_one_runs_once(blocker, timeout,
     assert ends[20].failure == failure
     assert sorted(ends) == list(range(41)) and all(e.attempts == 1 for e in ends.values())
     assert [ends[i].result for i in range(41) if i != 20] == [float(i) for i in range(40)]
+
+
+def test_large_tasks_and_results_do_not_deadlock_the_pool():
+    """A task is handed out early only when it is small: a 1 MB task sent to a worker that is
+    writing a 1 MB result would block both ends (found by review: the pool hung after 8 tasks)."""
+    code = ("from rotlab.parallel import run_tasks\n"
+            "if __name__ == '__main__':\n"
+            "    for jobs in (1, 2):\n"
+            "        run = run_tasks(bytes, [(b'y' * (1 << 20),)] * 40, jobs, preload=())\n"
+            "        print(len(run.ends), all(e.result == b'y' * (1 << 20) for e in run.ends))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.stdout.split() == ["40", "True", "40", "True"], done.stdout + done.stderr

@@ -508,3 +508,31 @@ def test_the_bar_says_when_numba_is_compiling():
     bar.compiling(False)
     bar.close()
     assert log.getvalue() == ""  # not a terminal: the summary reports the compile time
+
+
+def test_a_compile_cut_short_does_not_leave_the_clock_running(tmp_path, monkeypatch):
+    """A Ctrl-C raised inside numba (the compiler-lock shield re-sends it there) can keep a
+    compile's end from reaching the clock; the run then counted all later writing as compiling,
+    and the summary showed a negative writing time (found by review).  The clock is closed once
+    the method returns: writing keeps its time."""
+    from numba.core import event
+
+    from rotlab.methods.exact import Exact
+    from rotlab.recording.writer import RecordingWriter
+
+    solve, write = Exact.solve, RecordingWriter.write
+
+    def solve_after_a_lost_end(self, *args):
+        event.start_event("numba:compiler_lock")  # its end event never comes
+        return solve(self, *args)
+
+    def slow_write(self, chunk, start):
+        time.sleep(0.3)
+        return write(self, chunk, start)
+
+    monkeypatch.setattr(Exact, "solve", solve_after_a_lost_end)
+    monkeypatch.setattr(RecordingWriter, "write", slow_write)
+    monkeypatch.setattr(stream_module, "FLUSH_ROWS", 1 << 30)  # one chunk, written after the method returns
+    monkeypatch.setattr(stream_module, "FLUSH_SECONDS", 1e9)
+    run, writing, _ = api.record(build_scene(rotlab.load(CONFIGS / "euler.toml", method="exact")), RecordingSink(tmp_path / "e.rrd"))
+    assert writing >= 0.29 and run.stats.compile_seconds < 0.2

@@ -53,6 +53,7 @@ def compile_clock(announce: Callable[[bool], None] | None = None) -> Iterator[Co
     from numba.core import event
 
     with ExitStack() as listening:
+        listening.callback(clock.released)  # a compile cut short (Ctrl-C raised inside numba) never sends its end
         listening.enter_context(event.install_listener("numba:compiler_lock", _Listener(clock.held, clock.released)))
         if announce is not None:
             listening.enter_context(event.install_listener("numba:compile", _Listener(lambda: announce(True), lambda: announce(False))))

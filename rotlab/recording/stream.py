@@ -103,4 +103,4 @@ class ChunkStream:
     def _stopped(self, started: tuple[float, float]) -> None:
         """Add the time since ``started`` to ``seconds``, less what numba spent compiling in it."""
         wall, compiling = started
-        self.seconds += (time.perf_counter() - wall) - (self.clock.seconds - compiling)
+        self.seconds += max(0.0, (time.perf_counter() - wall) - (self.clock.seconds - compiling))

@@ -180,7 +180,9 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         run, how = run_on_dask(run_sweep_case, tasks, dask_address, retries=retries), f"Dask cluster at {dask_address}"
     else:
         workers = max(1, min(jobs, len(tasks)))
-        per_worker = -(-len(tasks) // workers)  # each worker process runs about this many cases
+        # each worker runs about this many cases: auto shares a kernel's loading among them; not with a
+        # per-case --timeout, whose clock the first case's kernel load would run out on every new worker
+        per_worker = -(-len(tasks) // workers) if timeout is None else 0
         run = run_tasks(run_sweep_case, [(*task, per_worker) for task in tasks], jobs, timeout=timeout, retries=retries)
         how = f"{workers} local worker process{'es' if workers > 1 else ''}"
     return SweepRun(collect_outcomes(p, run), how, run.stopped)
