@@ -38,6 +38,7 @@ class StreamProgress:
 
     def written(self, done: int, total: int) -> None:
         self.done = done
+        self.integrated = max(self.integrated, done)  # a streamed chunk is written before its window reports
         self._show(total)
 
     def compiling(self, active: bool) -> None:

@@ -407,6 +407,28 @@ def test_progress_is_a_transient_bar_on_a_terminal_and_lines_elsewhere(monkeypat
     assert "samples written" not in screen.getvalue()  # no log lines on a terminal
 
 
+def test_progress_lines_of_a_streamed_run_never_show_less_integrated_than_written(tmp_path, monkeypatch):
+    """A streamed window's rows are written before the method reports the window: the lines
+    said "integrated 0" while samples were already written.  Every line of a real streamed run
+    (lines at every flush) has integrated >= written, and the last has both at N."""
+    import io
+    import re
+
+    from rotlab import progress as progress_module
+
+    monkeypatch.setattr(progress_module, "LINE_EVERY", 0.0)
+    scenario = rotlab.load(CONFIGS / "euler.toml", method="rk4", duration=20.0, overrides={"solver.step": 1e-3})
+    monkeypatch.setattr(stepping, "WINDOW", 1000)
+    monkeypatch.setattr(stream_module, "FLUSH_ROWS", 700)
+    log = io.StringIO()
+    api.record(build_scene(scenario), RecordingSink(tmp_path / "run.rrd"), progress_module.StreamProgress("run", stream=log))
+    lines = re.findall(r"([\d,]+) of ([\d,]+) samples written \(\d+%; integrated ([\d,]+)\)", log.getvalue())
+    figures = [tuple(int(x.replace(",", "")) for x in line) for line in lines]
+    n = scenario.time.sample_count
+    assert len(figures) >= n // 700 and figures[-1] == (n, n, n)
+    assert all(integrated >= written for written, _, integrated in figures)
+
+
 @pytest.mark.parametrize("first_row_flushes", [False, True])
 def test_ctrl_c_before_the_first_sample_is_sent_writes_no_file(first_row_flushes, tmp_path, monkeypatch):
     """Ctrl-C inside the first conversion (the fault campaign's SIGINT at ~0.9 s): nothing was sent,
