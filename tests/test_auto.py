@@ -169,6 +169,24 @@ def test_a_process_told_to_expect_many_runs_steps_from_the_first(tmp_path):
     assert done.stdout.split() != ["exact"]
 
 
+def test_a_kernel_loaded_for_other_load_groups_is_not_counted_as_ready(tmp_path):
+    """numba specialises a kernel on the scene's load groups: after general.toml's taylor
+    (gravity, terms, tables, damping) the Lagrange top's taylor (gravity only) still has to be
+    compiled or loaded.  auto counted the kernel as ready and picked taylor for the top
+    (1.8 ms expected, 53 ms taken, seconds with an empty numba cache); it picks exact again."""
+    code = (
+        "import rotlab\n"
+        "from rotlab.methods import choose\n"
+        "from rotlab.scene.scene import build_scene\n"
+        f"rotlab.simulate({str(CONFIGS / 'general.toml')!r}, method='taylor', duration=0.1)\n"
+        f"top, heavy = (build_scene(rotlab.load(p)) for p in ({str(CONFIGS / 'lagrange.toml')!r}, {str(CONFIGS / 'general.toml')!r}))\n"
+        "print(choose._kernel_ready('taylor', top), choose._kernel_ready('taylor', heavy))\n"
+        f"print(rotlab.simulate({str(CONFIGS / 'lagrange.toml')!r}).stats.method)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
+    assert done.stdout.split() == ["False", "True", "exact"]
+
+
 def test_sweep_workers_are_told_their_share_of_the_cases(monkeypatch):
     from rotlab.sweep import runner
 

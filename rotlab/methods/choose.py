@@ -75,7 +75,7 @@ CACHE_SIZE = 512
 _CHOICES: dict[tuple, tuple[Method, str, Settings]] = {}
 _RUNS = 0  # auto choices made in this process (cache hits included): a process that ran k runs is expected to run ~k more
 _EXPECTED_RUNS = 0  # runs this process is known to make (``expect_runs``: a sweep worker's share of the cases)
-_READY: set[str] = set()  # methods whose kernel has run in this process (it stays loaded)
+_READY: set[tuple] = set()  # (method, model type) whose kernel specialisation is loaded in this process
 
 
 def expect_runs(count: int) -> None:
@@ -151,22 +151,54 @@ def _numba_ready() -> bool:
     return "numba.np.arraymath" in sys.modules
 
 
-def _kernel_ready(name: str) -> bool:
-    """Has ``name``'s kernel been compiled or loaded in this process (any specialisation)?"""
-    if name in _READY:
-        return True
+def _kernel_ready(name: str, scene: Scene) -> bool:
+    """Has ``name``'s kernel been compiled or loaded in this process for this scene's load
+    groups?  numba specialises a kernel on the model's type (absent load groups are None), so a
+    kernel loaded for a heavy body still compiles (or loads) again for a top without damping."""
     module_name, attr = _KERNELS.get(name, ("", ""))
     module = sys.modules.get(module_name)
     if module is None:
         return False
     signatures = getattr(getattr(module, attr, None), "signatures", None)  # numba builds this list on each call
-    ready = True if signatures is None else bool(signatures)
-    if ready:
-        _READY.add(name)
-    return ready
+    if signatures is None:  # not a numba dispatcher (NUMBA_DISABLE_JIT): nothing to load
+        return True
+    model = scene.cached("numba model type", lambda: _model_type(scene.model))
+    key = (name, model)
+    if key not in _READY and any(model in signature for signature in signatures):
+        _READY.add(key)
+    return key in _READY
 
 
-def with_first_use(estimates: list[cost.Estimate]) -> list[cost.Estimate]:
+def _model_type(model) -> object:
+    """numba's type of a scene's model (what the kernels specialise on), memoised by the model's
+    structure: which groups are present and their arrays' layouts (numba.typeof costs ~50 µs)."""
+    import numba
+
+    if model.user is not None:  # a Python torque: its function is part of the type
+        return numba.typeof(model)
+    key = _layout(model)
+    found = _MODEL_TYPES.get(key)
+    if found is None:
+        found = _MODEL_TYPES[key] = numba.typeof(model)
+    return found
+
+
+def _layout(value) -> object:
+    """What numba's type of a model field depends on: None, an array's dtype, rank and
+    contiguity, a tuple's fields, or the value's Python type (floats, ints)."""
+    if value is None:
+        return None
+    if isinstance(value, np.ndarray):
+        return (value.dtype.str, value.ndim, value.flags.c_contiguous)
+    if isinstance(value, tuple):
+        return (type(value), tuple(_layout(x) for x in value))
+    return type(value)
+
+
+_MODEL_TYPES: dict[tuple, object] = {}
+
+
+def with_first_use(estimates: list[cost.Estimate], scene: Scene) -> list[cost.Estimate]:
     """Add the one-time cost of loading each stepping method's kernel in this process, shared
     among the runs the process is expected to make: after k runs, ~k more (a sweep or a loop over
     ``simulate`` soon makes loading the kernel worth it; a single ``rotlab run`` does not)."""
@@ -174,7 +206,7 @@ def with_first_use(estimates: list[cost.Estimate]) -> list[cost.Estimate]:
     share = 1.0 / _expected_runs()
     out = []
     for e in estimates:
-        if e.method != "exact" and not _kernel_ready(e.method):
+        if e.method != "exact" and not _kernel_ready(e.method, scene):
             e = e._replace(seconds=e.seconds + share * cost.first_use_seconds(e.method, ready))
         out.append(e)
     return out
@@ -202,7 +234,7 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[str, str, Se
     no_series = get_method("taylor").unsupported(scene)
     if no_series and settings.order is None:  # a Python torque: no cost model knows its smoothness, dop853 controls its error
         return "dop853", f"auto: dop853 meets rtol = {settings.rtol:g} with error control ({no_series}); {kind}", settings
-    estimates = [e for e in with_first_use(candidates(scene, settings, work)) if get_method(e.method).unsupported(scene) is None]
+    estimates = [e for e in with_first_use(candidates(scene, settings, work), scene) if get_method(e.method).unsupported(scene) is None]
     if not estimates:
         raise InputError("solver.order", f"no method offers order {settings.order} for this {kind}; omit solver.order")
     meeting = [e for e in estimates if e.error <= ACCURACY_FACTOR * settings.rtol]
@@ -218,7 +250,7 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[str, str, Se
     compared = "; ".join(f"{e.label} {_seconds(e.seconds)}" + ("" if e.error <= ACCURACY_FACTOR * settings.rtol else f" (error ~{e.error:.0e})")
                          for e in others)
     floor = f"; stepping error floor near the separatrix ~{work.floor:.0e}" if work.floor > 1e-3 * settings.rtol else ""
-    if not all(_kernel_ready(e.method) for e in estimates if e.method != "exact"):
+    if not all(_kernel_ready(e.method, scene) for e in estimates if e.method != "exact"):
         floor += "; the stepping methods' times include loading their numba kernel in this process"
     why = (f"auto: {best.label}, expected {_seconds(best.seconds)}: {verdict}"
            + (f" (vs {compared})" if compared else "") + f"; {kind}{floor}")
