@@ -75,7 +75,7 @@ CACHE_SIZE = 512
 _CHOICES: dict[tuple, tuple[Method, str, Settings]] = {}
 _RUNS = 0  # auto choices made in this process (cache hits included): a process that ran k runs is expected to run ~k more
 _EXPECTED_RUNS = 0  # runs this process is known to make (``expect_runs``: a sweep worker's share of the cases)
-_READY: set[tuple] = set()  # (method, model type) whose kernel specialisation is loaded in this process
+_READY: dict[tuple, bool | int] = {}  # (method, load groups) -> its kernel specialisation is loaded (True) in this process
 
 
 def expect_runs(count: int) -> None:
@@ -159,43 +159,38 @@ def _kernel_ready(name: str, scene: Scene) -> bool:
     module = sys.modules.get(module_name)
     if module is None:
         return False
-    signatures = getattr(getattr(module, attr, None), "signatures", None)  # numba builds this list on each call
-    if signatures is None:  # not a numba dispatcher (NUMBA_DISABLE_JIT): nothing to load
+    kernel = getattr(module, attr, None)
+    overloads = getattr(kernel, "overloads", None)
+    if overloads is None:  # not a numba dispatcher (NUMBA_DISABLE_JIT): nothing to load
         return True
-    model = scene.cached("numba model type", lambda: _model_type(scene.model))
-    key = (name, model)
-    if key not in _READY and any(model in signature for signature in signatures):
-        _READY.add(key)
-    return key in _READY
+    groups = scene.cached("load groups", lambda: _load_groups(scene.loads))
+    key = (name, groups)
+    seen = _READY.get(key)  # True, or the kernel's number of specialisations when it was found absent
+    if seen is True or seen == len(overloads):
+        return seen is True
+    model = _MODEL_TYPES.get(groups) if groups is not None else None
+    if model is None:
+        import numba
+
+        model = numba.typeof(scene.model)
+        if groups is not None:
+            _MODEL_TYPES[groups] = model
+    ready = any(model in signature for signature in kernel.signatures)
+    if groups is not None:
+        _READY[key] = True if ready else len(overloads)
+    return ready
 
 
-def _model_type(model) -> object:
-    """numba's type of a scene's model (what the kernels specialise on), memoised by the model's
-    structure: which groups are present and their arrays' layouts (numba.typeof costs ~50 µs)."""
-    import numba
-
-    if model.user is not None:  # a Python torque: its function is part of the type
-        return numba.typeof(model)
-    key = _layout(model)
-    found = _MODEL_TYPES.get(key)
-    if found is None:
-        found = _MODEL_TYPES[key] = numba.typeof(model)
-    return found
-
-
-def _layout(value) -> object:
-    """What numba's type of a model field depends on: None, an array's dtype, rank and
-    contiguity, a tuple's fields, or the value's Python type (floats, ints)."""
-    if value is None:
+def _load_groups(loads) -> tuple | None:
+    """What numba's type of a scene's model depends on: which load groups are present (absent
+    ones are None; rotlab builds every array alike).  None for a Python torque, whose compiled
+    function is part of the type (then nothing is memoised)."""
+    if loads.user is not None:
         return None
-    if isinstance(value, np.ndarray):
-        return (value.dtype.str, value.ndim, value.flags.c_contiguous)
-    if isinstance(value, tuple):
-        return (type(value), tuple(_layout(x) for x in value))
-    return type(value)
+    return (len(loads.forces) > 0, len(loads.terms) > 0, len(loads.tables) > 0, loads.damping > 0.0, loads.expressions is not None)
 
 
-_MODEL_TYPES: dict[tuple, object] = {}
+_MODEL_TYPES: dict[tuple, object] = {}  # load groups -> numba's type of the model (numba.typeof costs ~50 µs)
 
 
 def with_first_use(estimates: list[cost.Estimate], scene: Scene) -> list[cost.Estimate]:
