@@ -104,7 +104,7 @@ def entity_table(samples: int = 200_000) -> None:
             column = {"Scalars": lambda v: rr.Scalars.columns(scalars=v), "Transform3D": lambda v: rr.Transform3D.columns(quaternion=v),
                       "Points3D": lambda v: rr.Points3D.columns(positions=v), "Arrows3D": lambda v: rr.Arrows3D.columns(vectors=v)}[kind]
             size = encoded(lambda rec, index, rows: rec.send_columns(entity, index, column(values[rows]))) - empty
-            full = entity.startswith(writer.FULL_RATE)
+            full = writer.full_rate(entity)
             print(f"| {name} | `{entity}` | {'every sample' if full else 'visual'} | {values.shape[1] if values.ndim > 1 else 1} | "
                   f"{size / len(ns):.1f} |", flush=True)
 

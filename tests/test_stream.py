@@ -72,10 +72,16 @@ def test_visual_series_are_thinned_and_the_state_is_not(tmp_path, monkeypatch):
     t_state, _ = read_series(tmp_path / "s.rrd", layout.QUATERNION)
     t_pose, _ = read_series(tmp_path / "s.rrd", layout.BODY, "Transform3D:quaternion")
     t_log, _ = read_series(tmp_path / "s.rrd", f"{layout.INVARIANTS_LOG}/energy")
+    t_energy, _ = read_series(tmp_path / "s.rrd", f"{layout.INVARIANTS}/energy")
+    t_norm, norm = read_series(tmp_path / "s.rrd", f"{layout.INVARIANTS}/quaternion_norm")
     stride = -(-2001 // 100)
     assert t_state.shape[0] == 2001
     np.testing.assert_array_equal(t_pose, t_state[::stride])  # every stride-th sample, across chunks
     np.testing.assert_array_equal(t_log, t_state[::stride])
+    np.testing.assert_array_equal(t_energy, t_state)  # the invariants: every sample
+    np.testing.assert_array_equal(t_norm, t_state[::stride])  # |Λ| − 1, a function of Λ alone: visual rate
+    _, q = read_series(tmp_path / "s.rrd", layout.QUATERNION)
+    np.testing.assert_array_equal(norm[:, 0], (np.linalg.norm(q, axis=1) - 1.0)[::stride])  # recomputable from the file
 
 
 def test_visual_samples_are_collected_into_few_chunks(tmp_path, monkeypatch):

@@ -433,8 +433,8 @@ class Output(_Model):
 
     path: str | None = None  # default: <config name>.rrd
     euler_angles: bool = False
-    # derived and visual series (pose, arrows, axis tip, log drifts, Euler angles, L in space) keep at
-    # most this many samples (every k-th); the state, energy and invariant drifts keep every sample
+    # derived and visual series (pose, arrows, axis tip, energy, log drifts, |Λ| − 1, Euler angles, L in
+    # space) keep at most this many samples (every k-th); the state and the invariants' drifts keep every sample
     visual_samples: Annotated[int, Field(ge=2, strict=True)] = 100_000
     max_megabytes: PositiveReal = 2000.0  # `rotlab run` estimates the recording's size first and refuses beyond this
 

@@ -3,9 +3,9 @@ sample) through one ``RecordingSink`` (``rotlab.recording.sink``: checked writes
 file, atomic rename, live viewers).
 
 ``RecordingWriter`` takes a run chunk by chunk (``write``) as it is produced, so a streamed run
-holds only the current chunk.  The state and the invariants (``FULL_RATE``) are written at every
-sample; the derived and visual series (pose, arrows, axis tip, log drifts, Euler angles, L in
-space) at every ``stride``-th sample, collected until ``VISUAL_ROWS`` of them or ``VISUAL_SECONDS``
+holds only the current chunk.  The state and the invariants (``full_rate``) are written at every
+sample; the derived and visual series (pose, arrows, axis tip, log drifts, |Λ| − 1, Euler angles,
+L in space) at every ``stride``-th sample, collected until ``VISUAL_ROWS`` of them or ``VISUAL_SECONDS``
 have passed: every ``send_columns`` is one chunk in the file, and Rerun holds memory per chunk
 until the end of the file, so ~25 visual entities sent with every 16,384-sample flush at stride
 100 (~150,000 tiny chunks) made a 10⁸-sample run peak 60 MB higher; 4,096 rows at a time keep
@@ -41,7 +41,7 @@ CHUNK_ROWS = 16384  # rows per send_columns call: Rerun's cost per row is 4× lo
 VISUAL_ROWS = 4096  # visual rows converted and sent together: their conversion (labels, geometry) holds ~1.5 kB a row
 VISUAL_SECONDS = 0.5  # collected visual rows are sent at least this often (a live viewer keeps up)
 LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
-FULL_RATE = (layout.QUATERNION, layout.OMEGA, layout.INVARIANTS + "/")  # every sample: the state and the drifts
+FULL_RATE = (layout.QUATERNION, layout.OMEGA)  # every sample: the state, and the invariants' drifts (``full_rate``)
 
 
 def check_output_path(path: Path, inputs: tuple[Path, ...] = ()) -> None:
@@ -88,7 +88,7 @@ def check_output_path(path: Path, inputs: tuple[Path, ...] = ()) -> None:
 
 # Bytes per sample in the file (LZ4-compressed columns, measured by benchmarks/bench_stream.py):
 # the full-rate series, and the visual series per sample they keep.
-FULL_RATE_BYTES = 155.0
+FULL_RATE_BYTES = 140.0
 VISUAL_BYTES = 320.0
 WRITE_RATE = 0.5e6  # samples per second, full layout (same source; a loaded 2-core machine)
 
@@ -306,11 +306,20 @@ def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views, summ
     rec.log(layout.INFO, rr.TextDocument(run_report(summary, scales), media_type="text/markdown"), static=True)
 
 
+def full_rate(entity: str) -> bool:
+    """Is ``entity`` written at every sample: the state and the invariants' drifts (not the
+    drifts in ``invariants.THINNED``)?"""
+    if entity in FULL_RATE:
+        return True
+    parent, _, name = entity.rpartition("/")
+    return parent == layout.INVARIANTS and name not in invariants.THINNED
+
+
 def _write_full_rate(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int) -> None:
-    """The ``FULL_RATE`` series (state and drifts), every sample of ``traj``."""
+    """The ``full_rate`` series (state and drifts), every sample of ``traj``."""
     ns = _nanoseconds(traj.t)
     full = {layout.QUATERNION: traj.quaternion, layout.OMEGA: traj.omega}
-    full.update({f"{layout.INVARIANTS}/{name}": drift[:, None] for name, drift in traj.invariants.items()})
+    full.update({entity: drift[:, None] for name, drift in traj.invariants.items() if full_rate(entity := f"{layout.INVARIANTS}/{name}")})
     for rows in _slices(traj.t.shape[0], chunk_rows):
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
         for entity, values in full.items():
@@ -318,13 +327,13 @@ def _write_full_rate(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int)
 
 
 def _write_visual(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chunk_rows: int) -> None:
-    """The derived and visual series (everything not ``FULL_RATE``) at the samples of ``traj``."""
+    """The derived and visual series (everything not ``full_rate``) at the samples of ``traj``."""
     ns = _nanoseconds(traj.t)
     vectors = {
         layout.OMEGA_ARROW: views.omega_space * views.omega_scale,
         layout.L_ARROW: traj.L_space * views.L_scale,
     }
-    thin = {entity: values for entity, (values, _) in views.series.items() if not entity.startswith(FULL_RATE)}
+    thin = {entity: values for entity, (values, _) in views.series.items() if not full_rate(entity)}
     for rows in _slices(traj.t.shape[0], chunk_rows):
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
         rec.send_columns(layout.BODY, index, rr.Transform3D.columns(quaternion=visuals.xyzw(views.unit_q[rows])))
