@@ -55,3 +55,29 @@ def test_the_clock_reads_a_compile_in_progress_and_announces_it():
     with compile_clock(announce=lambda active: heard.append((active, 0.0))):
         other(2.0)
     assert len(heard) == 2  # no compile, nothing announced
+
+
+def test_scenes_with_equal_loads_share_their_kernel_constants():
+    """A sweep over initial states or a loop over ``simulate`` builds a new scene each call; what
+    depends only on the loads and the principal moments (the model, taylor's force map) is built
+    once and shared by content, and a change of any load or moment gets its own."""
+    import rotlab
+    from rotlab.methods import taylor
+    from rotlab.scene.scene import build_scene
+    from tests.conftest import CONFIGS
+
+    base = rotlab.load(CONFIGS / "general.toml")
+    spun = rotlab.load(CONFIGS / "general.toml", overrides={"initial.omega": [0.5, -0.3, 20.0]})
+    pushed = rotlab.load(CONFIGS / "general.toml", overrides={"loads[1].value[2]": 0.03})
+    a, b, c = (build_scene(s) for s in (base, spun, pushed))
+    assert a.model is b.model and a.model is not c.model
+    constants = [s.shared("taylor", lambda s=s: taylor.kernel_constants(s)) for s in (a, b, c)]
+    assert constants[0] is constants[1] and constants[0] is not constants[2]
+    np.testing.assert_array_equal(c.model.terms, build_scene(pushed).loads.terms)  # its own loads, not a's
+    assert c.model.terms[0, 5] == 0.03 and a.model.terms[0, 5] == 0.02
+
+    def torque(t, q, omega):
+        return np.zeros(3)
+
+    with_fn = [build_scene(base, torque=torque) for _ in range(2)]
+    assert with_fn[0].content_key is None and with_fn[0].model is not with_fn[1].model  # a Python torque: per scene

@@ -94,12 +94,10 @@ def _choice_key(scene: Scene, settings: Settings, t: np.ndarray) -> tuple | None
     """Everything the choice depends on, as numbers: the same body, state, loads, samples and
     settings get the same choice (a loop over ``rotlab.simulate`` builds a new scene each call).
     None when a load is not plain numbers (then the choice is not cached)."""
-    loads = tuple(x.tobytes() if isinstance(x, np.ndarray) else x for x in scene.loads)
-    try:
-        hash(loads)
-    except TypeError:
+    content = scene.content_key
+    if content is None:
         return None
-    return (_numba_ready(), _expected_runs().bit_length(), scene.kind, scene.moments.tobytes(), scene.omega0.tobytes(), loads, settings.rtol, settings.atol, settings.step,
+    return (_numba_ready(), _expected_runs().bit_length(), scene.kind, content, scene.omega0.tobytes(), settings.rtol, settings.atol, settings.step,
             settings.order, settings.max_steps, t.shape[0], float(t[0]), float(t[-1]))
 
 
@@ -111,7 +109,7 @@ def work_of(scene: Scene, t: np.ndarray) -> cost.Work:
     floor, amplification = 0.0, 1.0
     if scene.kind == TORQUE_FREE:
         floor, amplification = cost.separatrix(tuple(scene.moments.tolist()), tuple(scene.omega0.tolist()), span, rate)
-    breaks = scene.cached("breakpoints", lambda: _breakpoints(scene))
+    breaks = scene.shared("breakpoints", lambda: _breakpoints(scene))
     inside = int(np.count_nonzero((breaks > min(t[0], t[-1])) & (breaks < max(t[0], t[-1])))) if breaks.size else 0
     return cost.Work(span=abs(span), samples=int(t.shape[0]), rate=rate, breakpoints=inside, loads=loads, floor=floor,
                      amplification=amplification)
@@ -163,7 +161,7 @@ def _kernel_ready(name: str, scene: Scene) -> bool:
     overloads = getattr(kernel, "overloads", None)
     if overloads is None:  # not a numba dispatcher (NUMBA_DISABLE_JIT): nothing to load
         return True
-    groups = scene.cached("load groups", lambda: _load_groups(scene.loads))
+    groups = scene.shared("load groups", lambda: _load_groups(scene.loads))
     key = (name, groups)
     seen = _READY.get(key)  # True, or the kernel's number of specialisations when it was found absent
     if seen is True or seen == len(overloads):

@@ -106,7 +106,7 @@ class FixedStepMethod:
 
     def kernel_args(self, scene: Scene, order: int) -> tuple:
         """The method's extra kernel arguments (after ``scene.model``), once per scene."""
-        return scene.cached(f"{self.name}-{order}", lambda: tuple(self.extra_args(scene, order)))
+        return scene.shared(f"{self.name}-{order}", lambda: tuple(self.extra_args(scene, order)))
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         order = self.order(settings)

@@ -43,7 +43,7 @@ class Taylor:
         order = self.order_for(settings)
         if not MIN_ORDER <= order <= MAX_ORDER:
             raise InputError("solver.order", f"taylor takes orders {MIN_ORDER} to {MAX_ORDER}, not {order}")
-        c0, T, flags = scene.cached("taylor", lambda: kernel_constants(scene))
+        c0, T, flags = scene.shared("taylor", lambda: kernel_constants(scene))
         model = scene.model
         y = initial_state(scene.q0, scene.omega0)
         counters = np.zeros(1, dtype=np.int64)

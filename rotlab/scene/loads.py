@@ -326,6 +326,17 @@ def _term(frame: float, window: tuple[float, float], offset: np.ndarray, amplitu
     return np.array([frame, window[0], window[1], *offset, *amplitude, w, phase], dtype=float)
 
 
+def loads_key(loads: LoadArrays) -> tuple | None:
+    """The loads as hashable values (arrays as bytes); None when a load is not plain numbers
+    (a Python torque)."""
+    key = tuple(x.tobytes() if isinstance(x, np.ndarray) else x for x in loads)
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
+
+
 def breakpoints(loads: LoadArrays) -> np.ndarray:
     """Sorted times where a load switches or kinks (window edges, table knots): an adaptive
     method ends its steps there instead of stepping over a short pulse."""

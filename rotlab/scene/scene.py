@@ -26,12 +26,16 @@ from rotlab.scene.loads import (
     build_model,
     compile_loads,
     has_nonconservative,
+    loads_key,
     shortest_window,
     torque_scale,
     user_torque,
 )
 
 T = TypeVar("T")
+
+SHARED_SIZE = 256  # scenes' shared constants kept (``Scene.shared``), oldest dropped first
+_SHARED: dict[tuple, Any] = {}
 
 SYMMETRY_RTOL = 1e-12  # two moments this close are treated as equal (axisymmetric body)
 
@@ -62,6 +66,27 @@ class Scene:
             self._memo[key] = build()
         return self._memo[key]
 
+    def shared(self, key: str, build: Callable[[], T]) -> T:
+        """Like ``cached``, for what depends only on the loads and the principal moments (the
+        kernels' model and load constants): shared among scenes with equal loads and moments, so
+        a sweep over initial states or a loop over ``rotlab.simulate``, which build a new scene
+        each call, pays for it once.  Kept per scene when a Python torque is among the loads."""
+        content = self.content_key
+        if content is None:
+            return self.cached(key, build)
+        found = _SHARED.get((key, content))
+        if found is None:
+            if len(_SHARED) >= SHARED_SIZE:
+                _SHARED.pop(next(iter(_SHARED)))
+            found = _SHARED[(key, content)] = self.cached(key, build)
+        return found
+
+    @cached_property
+    def content_key(self) -> tuple | None:
+        """The loads and the principal moments as bytes (None with a Python torque)."""
+        loads = loads_key(self.loads)
+        return None if loads is None else (self.moments.tobytes(), loads)
+
     @property
     def is_principal(self) -> bool:
         return bool(np.array_equal(self.axes, np.eye(3)))
@@ -81,7 +106,7 @@ class Scene:
     def model(self) -> Model:
         """The one value the kernels receive: Euler coefficients, breakpoints and the loads,
         absent groups as None (``rotlab.scene.loads.Model``)."""
-        return build_model(self.loads, self.moments)
+        return self.shared("model", lambda: build_model(self.loads, self.moments))
 
     @cached_property
     def invariants(self) -> tuple[str, ...]:
