@@ -313,3 +313,46 @@ def test_animate_refuses_bad_input(cli, tmp_path, recordings):
     result = cli("animate", str(path), "--speed", "1e-6")
     assert result.exit_code == 2 and "--speed" in result.stderr
     assert not list(tmp_path.glob("*.gif"))
+
+
+def test_load_torques_drawn_with_numpy_equal_the_compiled_kernels():
+    """The recording evaluates the plain load kinds with NumPy (a first general.toml run compiled a
+    view kernel per load kind for ~5 s); each must equal ``core.torques``, compiled, for that load
+    alone: forces, body-frame forces (follower torques), constant and harmonic torques in both
+    frames with windows, a constant folded from w = 0, tables in both frames (knots and window
+    edges sampled exactly, before, inside, after), damping.  Bound: 4 ulp of the largest torque."""
+    from rotlab.recording import loads_view
+    from rotlab.scene.scene import build_scene
+
+    loads = [
+        {"type": "gravity", "g": [0.3, -1.0, -9.81]},
+        {"type": "force", "frame": "space", "value": [0.5, 2.0, -1.0], "point": [0.1, -0.2, 0.05]},
+        {"type": "force", "frame": "body", "value": [0.0, 1.5, 0.2], "point": [0.3, 0.0, -0.1], "window": {"on": 1.0, "off": 3.0}},
+        {"type": "torque", "frame": "space", "value": [0.01, -0.02, 0.03], "window": {"on": 2.0, "off": 4.0}},
+        {"type": "torque", "frame": "body", "value": [-0.01, 0.0, 0.02]},
+        {"type": "harmonic_torque", "frame": "space", "offset": [0.001, 0.0, 0.0], "amplitude": [0.0, 0.02, -0.01],
+         "angular_frequency": 3.0, "phase": 0.4, "window": {"on": 0.5, "off": 6.0}},
+        {"type": "harmonic_torque", "frame": "body", "amplitude": [0.002, 0.001, 0.0], "angular_frequency": 7.0, "phase": -1.0},
+        {"type": "harmonic_torque", "frame": "body", "amplitude": [0.0, 0.0, 0.004], "angular_frequency": 0.0, "phase": 0.7},
+        {"type": "torque_table", "frame": "body", "times": [5.0, 6.0, 7.5], "values": [[0, 0, 0], [0.01, 0, -0.05], [0.02, 0.03, 0]]},
+        {"type": "torque_table", "frame": "space", "times": [0.5, 2.5, 3.0, 8.0], "values": [[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1], [0.1, 0.1, 0.1]],
+         "window": {"on": 1.0, "off": 7.0}},
+        {"type": "damping", "coefficient": 3e-3},
+    ]
+    scenario = rotlab.load(CONFIGS / "general.toml", overrides={"loads": loads})
+    scene = build_scene(scenario)
+    rng = np.random.default_rng(7)
+    edges = [0.5, 1.0, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 7.0, 7.5, 8.0]
+    t = np.concatenate([edges, np.nextafter(edges, -np.inf), rng.uniform(-1.0, 10.0, 500)])
+    q = rng.standard_normal((t.shape[0], 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    w = rng.standard_normal((t.shape[0], 3)) * 20.0
+    views = loads_view.load_views(scene)
+    assert len(views) == len(loads)
+    for view in views:
+        drawn = loads_view.array_torques(view.arrays, t, q, w)
+        compiled = np.empty_like(drawn)
+        loads_view._torques(t, q, w, view.model, compiled)
+        scale = max(np.max(np.abs(compiled)), 1e-300)
+        assert np.max(np.abs(drawn - compiled)) <= 4 * np.finfo(float).eps * scale, view.description
+        assert np.count_nonzero(np.any(compiled != 0.0, axis=1)) > 50, view.description  # the samples exercise the load

@@ -3,8 +3,11 @@ and its torque over time, from the scene's own load model.
 
 For load i alone, the torque is the one the kernels integrate: ``core.torques`` applied to the
 model of a scenario holding load i only (body, principal frame),
-    M_i = conservative_torque(y, model_i) + nonconservative_torque(t, y, model_i),
-so any load kind the scene model compiles is drawn without a second implementation of it.
+    M_i = conservative_torque(y, model_i) + nonconservative_torque(t, y, model_i).
+The plain load kinds (forces, torque terms, tables, damping) are evaluated with NumPy over all
+samples at once (``array_torques``, the same formulas as ``core.torques``: its tests pin them to
+the compiled ones): compiling that kernel once per load kind took ~5 s of a first general.toml
+run, more than its stepping kernel.  Expression loads and Python torques use the compiled kernel.
 Arrows: a force F at body point p is drawn as F (space frame) starting at R p; gravity as m g at
 R r_c; every other load as its torque M (space frame) starting at the fixed point.
 """
@@ -20,7 +23,7 @@ from rotlab.config import models as cfg
 from rotlab.core import quaternion as quat
 from rotlab.core.state import STATE_SIZE
 from rotlab.core.torques import conservative_torque, nonconservative_torque
-from rotlab.scene.loads import build_model, compile_loads
+from rotlab.scene.loads import LoadArrays, build_model, compile_loads
 
 MAX_LOAD_SAMPLES = 20_000  # load arrows drawn per load and run
 
@@ -68,9 +71,46 @@ def _build(scene) -> list[LoadView]:
 
 def torques(scene, view: LoadView, t: np.ndarray, q_p: np.ndarray, w_p: np.ndarray) -> np.ndarray:
     """(N, 3) torque of one load, principal body frame, at the given samples (principal state)."""
+    if view.arrays.expressions is None and view.arrays.user is None:
+        return array_torques(view.arrays, np.asarray(t, dtype=np.float64), q_p, w_p)
     out = np.empty((t.shape[0], 3))
     _torques(np.ascontiguousarray(t, dtype=np.float64), np.ascontiguousarray(q_p), np.ascontiguousarray(w_p), view.model, out)
     return out
+
+
+def array_torques(loads: LoadArrays, t: np.ndarray, q_p: np.ndarray, w_p: np.ndarray) -> np.ndarray:
+    """(N, 3) torque of the forces, torque terms, tables and damping of ``loads`` (not
+    expressions or Python torques), principal body frame, at N samples, as ``core.torques``:
+        forces  Σ p × (Rᵀ F)
+        terms   offset + amplitude sin(w t + φ) for on ≤ t < off, Rᵀ M in the space frame
+        tables  piecewise-linear in t for on ≤ t < off and first knot ≤ t < last knot
+        damping −k ω."""
+    out = np.zeros((t.shape[0], 3))
+    for p_x, p_y, p_z, *force in loads.forces:
+        out += quat.cross_array(np.array([p_x, p_y, p_z]), quat.rotate_to_body_array(q_p, np.array(force)))
+    for frame, on, off, *rest in loads.terms:
+        offset, amplitude, (w, phase) = np.array(rest[:3]), np.array(rest[3:6]), rest[6:]
+        m = offset + amplitude * np.sin(w * t + phase)[:, None] if w != 0.0 else np.broadcast_to(offset, (t.shape[0], 3))
+        out += _acting(t, on, off, _in_body(q_p, frame, m))
+    for frame, on, off, first, stop in loads.tables:
+        tt, tv = loads.table_t[int(first) : int(stop)], loads.table_v[int(first) : int(stop)]
+        lo = np.clip(np.searchsorted(tt, t, side="right") - 1, 0, len(tt) - 2)
+        s = (t - tt[lo]) / (tt[lo + 1] - tt[lo])
+        m = tv[lo] + s[:, None] * (tv[lo + 1] - tv[lo])
+        out += _acting(t, max(on, tt[0]), min(off, tt[-1]), _in_body(q_p, frame, m))
+    if loads.damping > 0.0:
+        out += -loads.damping * w_p
+    return out
+
+
+def _in_body(q_p: np.ndarray, frame: float, m: np.ndarray) -> np.ndarray:
+    """Body components of vectors given in the body (frame 0) or the space frame (Rᵀ M)."""
+    return quat.rotate_to_body_array(q_p, m) if frame != 0.0 else m
+
+
+def _acting(t: np.ndarray, on: float, off: float, m: np.ndarray) -> np.ndarray:
+    """``m`` where on ≤ t < off, else 0."""
+    return np.where(((on <= t) & (t < off))[:, None], m, 0.0)
 
 
 @njit(cache=True)
