@@ -133,6 +133,10 @@ class Trajectory:
 
     def max_drift(self) -> dict[str, float]:
         """max |drift| over the run, per invariant."""
+        return dict(self._max_drift)
+
+    @cached_property
+    def _max_drift(self) -> dict[str, float]:
         return {name: float(np.max(np.abs(v))) if v.size else 0.0 for name, v in self.invariants.items()}
 
     @property

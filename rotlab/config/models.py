@@ -232,8 +232,8 @@ class TorqueTable(_Model):
 
     type: Literal["torque_table"]
     frame: Frame
-    times: list[TimeReal]  # s, strictly increasing
-    values: list[Vec3]  # N·m
+    times: tuple[TimeReal, ...]  # s, strictly increasing (tuples: a frozen load is hashable)
+    values: tuple[Vec3, ...]  # N·m
     window: Window | None = None
 
     @model_validator(mode="after")

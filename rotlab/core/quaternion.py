@@ -67,6 +67,15 @@ def multiply_array(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.concatenate([scalar, vector], axis=-1)
 
 
+def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Λ ∘ M for one pair of quaternions: ``multiply_array``'s operations in its order (the same
+    floating-point result) on Python floats, ~10× faster for a single product."""
+    a0, a1, a2, a3 = a.tolist()
+    b0, b1, b2, b3 = b.tolist()
+    return np.array([a0 * b0 - (a1 * b1 + a2 * b2 + a3 * b3), a0 * b1 + b0 * a1 + (a2 * b3 - a3 * b2),
+                     a0 * b2 + b0 * a2 + (a3 * b1 - a1 * b3), a0 * b3 + b0 * a3 + (a1 * b2 - a2 * b1)])
+
+
 def conjugate_array(q: np.ndarray) -> np.ndarray:
     """Λ̃ = (q0, −q1, −q2, −q3)."""
     return q * np.array([1.0, -1.0, -1.0, -1.0])
@@ -78,6 +87,19 @@ def rotate_to_space_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     qv = q[..., 1:]
     t = 2.0 * cross_array(qv, v)
     return v + q0 * t + cross_array(qv, t)
+
+
+def projection_array(q: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(R(Λ) w)·v for unit quaternion rows q (N, 4) and fixed 3-vectors w, v:
+
+        (R w)·v = (2 q0² − 1)(w·v) + 2 (q·w)(q·v) + 2 q0 q·(w × v)     (q the vector part, |Λ| = 1),
+
+    one (N, 3)·(3, 3) product instead of rotating N vectors."""
+    (w1, w2, w3), (v1, v2, v3) = np.asarray(w, dtype=float).tolist(), np.asarray(v, dtype=float).tolist()
+    columns = np.array([[w1, v1, w2 * v3 - w3 * v2], [w2, v2, w3 * v1 - w1 * v3], [w3, v3, w1 * v2 - w2 * v1]])
+    p = np.einsum("ij,jk->ik", q[:, 1:], columns)
+    q0 = q[:, 0]
+    return (2.0 * q0 * q0 - 1.0) * (w1 * v1 + w2 * v2 + w3 * v3) + 2.0 * (p[:, 0] * p[:, 1] + q0 * p[:, 2])
 
 
 def rotate_to_body_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:

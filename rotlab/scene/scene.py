@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+import math
 from functools import cached_property
 from typing import Any, TypeVar
 
@@ -87,20 +88,25 @@ class Scene:
         loads = loads_key(self.loads)
         return None if loads is None else (self.moments.tobytes(), loads)
 
-    @property
+    @cached_property
     def is_principal(self) -> bool:
+        """The user's body axes are the principal axes (no conversion of the series)."""
         return bool(np.array_equal(self.axes, np.eye(3)))
 
     @cached_property
     def rate_scale(self) -> float:
         """A characteristic angular rate (rad/s) of the scene: max(|ω0|, √(|M|/I_min), load frequencies)."""
-        rates = [float(np.linalg.norm(self.omega0)), np.sqrt(torque_scale(self.loads) / float(np.min(self.moments)))]
+        return max(math.sqrt(sum(w * w for w in self.omega0.tolist())), self.shared("load rate", self._load_rate))
+
+    def _load_rate(self) -> float:
+        """The loads' part of ``rate_scale``: √(|M|/I_min), their frequencies, damping / I_min."""
+        rates = [np.sqrt(torque_scale(self.loads) / float(np.min(self.moments)))]
         if self.loads.terms.size:
             rates.append(float(np.max(np.abs(self.loads.terms[:, 9]))))
         rates.append(self.loads.damping / float(np.min(self.moments)))
         if self.loads.expressions is not None:
             rates.append(float(np.max(np.abs(self.loads.expressions.rows[:, EX_RATE]))))
-        return max(rates)
+        return float(max(rates))
 
     @cached_property
     def model(self) -> Model:
@@ -116,7 +122,7 @@ class Scene:
     @cached_property
     def shortest_window(self) -> float:
         """The shortest time a windowed load or a table segment acts, s (inf when none)."""
-        return shortest_window(self.loads)
+        return self.shared("shortest window", lambda: shortest_window(self.loads))
 
 
 def initial_quaternion(initial: cfg.Initial) -> np.ndarray:
@@ -138,38 +144,67 @@ def initial_quaternion(initial: cfg.Initial) -> np.ndarray:
 def build_scene(scenario: cfg.Scenario, torque: Callable | None = None, frame: str = "body") -> Scene:
     """The scene of ``scenario``; ``torque`` adds a Python function fn(t, q, omega) -> M (user's
     body frame in, M in ``frame``) compiled by numba (``rotlab.scene.loads.user_torque``)."""
-    body = scenario.body
-    if body.principal_moments is not None:  # the user's axes are the principal axes
-        moments, axes, axes_q = np.asarray(body.principal_moments, dtype=float), np.eye(3), np.array([1.0, 0.0, 0.0, 0.0])
-        q0 = initial_quaternion(scenario.initial)
-    else:
-        moments, axes = inertia.principal_axes(np.asarray(body.inertia_tensor, dtype=float))
-        axes_q = quat.from_matrix(axes)
-        q0 = quat.multiply_array(initial_quaternion(scenario.initial), axes_q)
-    omega0 = axes.T @ np.asarray(scenario.initial.omega, dtype=float)
-    user = None if torque is None else user_torque(torque, frame, axes)
-    loads = compile_loads(scenario, axes, moments, user)
+    rigid = _rigid_part(scenario) if torque is None else _build_rigid(scenario, user_torque(torque, frame, _principal(scenario.body)[1]))
+    q0 = initial_quaternion(scenario.initial)
+    if not rigid.principal:
+        q0 = quat.multiply(q0, rigid.fields["axes_quaternion"])
+    omega0 = rigid.fields["axes"].T @ np.asarray(scenario.initial.omega, dtype=float)
+    scene = Scene(scenario=scenario, q0=q0, omega0=omega0, **rigid.fields)
+    scene.__dict__.update(rigid.properties)  # cached properties, filled in
+    return scene
 
+
+@dataclass(frozen=True)
+class _Rigid:
+    """What a scene derives from its body and loads alone (the initial state aside)."""
+
+    fields: dict[str, Any]  # Scene's fields from moments to symmetry_axis
+    principal: bool  # the user's axes are the principal axes
+    properties: dict[str, Any]  # Scene's cached properties that depend on these alone
+
+
+RIGID_SIZE = 256  # bodies-with-loads kept, oldest dropped first
+_RIGID: dict[tuple, _Rigid] = {}
+
+
+def _rigid_part(scenario: cfg.Scenario) -> _Rigid:
+    """``_build_rigid``, shared among scenarios with equal body and loads (frozen models, compared
+    by value): a sweep over initial states or a loop over ``rotlab.simulate`` builds it once."""
+    key = (scenario.body, tuple(scenario.loads))
+    try:
+        found = _RIGID.get(key)
+    except TypeError:  # a load holding a mapping (an expression's constants): not shared
+        return _build_rigid(scenario, None)
+    if found is None:
+        if len(_RIGID) >= RIGID_SIZE:
+            _RIGID.pop(next(iter(_RIGID)))
+        found = _RIGID[key] = _build_rigid(scenario, None)
+    return found
+
+
+def _principal(body: cfg.Body) -> tuple[np.ndarray, np.ndarray]:
+    """(principal moments, axes): columns of ``axes`` are the principal axes in the user's frame."""
+    if body.principal_moments is not None:  # the user's axes are the principal axes
+        return np.asarray(body.principal_moments, dtype=float), np.eye(3)
+    return inertia.principal_axes(np.asarray(body.inertia_tensor, dtype=float))
+
+
+def _build_rigid(scenario: cfg.Scenario, user) -> _Rigid:
+    principal = scenario.body.principal_moments is not None
+    moments, axes = _principal(scenario.body)
+    axes_q = np.array([1.0, 0.0, 0.0, 0.0]) if principal else quat.from_matrix(axes)
+    loads = compile_loads(scenario, axes, moments, user)
     forces = active_forces(loads)
     has_work = has_nonconservative(loads)
     field = _common_direction(forces[:, 3:]) if len(forces) and not has_work else None
     kind, reason, symmetry_axis = _classify(moments, forces, has_work)
-
-    return Scene(
-        scenario=scenario,
-        moments=moments,
-        axes=axes,
-        axes_quaternion=axes_q,
-        omega0=omega0,
-        q0=q0,
-        loads=loads,
-        kind=kind,
-        kind_reason=reason,
-        has_potential=bool(len(forces)),
-        has_work=has_work,
-        field_direction=None if field is None else -field,
-        symmetry_axis=symmetry_axis,
-    )
+    fields = dict(moments=moments, axes=axes, axes_quaternion=axes_q, loads=loads, kind=kind, kind_reason=reason,
+                  has_potential=bool(len(forces)), has_work=has_work, field_direction=None if field is None else -field,
+                  symmetry_axis=symmetry_axis)
+    content = loads_key(loads)
+    properties = {"is_principal": bool(np.array_equal(axes, np.eye(3))),
+                  "content_key": None if content is None else (moments.tobytes(), content)}
+    return _Rigid(fields, principal, properties)
 
 
 def _common_direction(vectors: np.ndarray) -> np.ndarray | None:

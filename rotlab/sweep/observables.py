@@ -56,9 +56,8 @@ def nutation(traj: Trajectory) -> np.ndarray:
     if not len(traj.t):
         return np.zeros(0)
     e, d = reference_axes(traj)
-    unit_q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
-    e_space = quat.rotate_to_space_array(unit_q, np.broadcast_to(e, (len(unit_q), 3)))
-    return np.arccos(np.clip(e_space @ d, -1.0, 1.0))
+    unit_q_principal = traj._quantities[0]  # R(Λ_user) e = R(Λ_P) Pᵀ e
+    return np.arccos(np.clip(quat.projection_array(unit_q_principal, traj.scene.axes.T @ e, d), -1.0, 1.0))
 
 
 def case_observables(traj: Trajectory) -> dict[str, float]:
