@@ -48,6 +48,27 @@ def test_cases_are_grid_times_draws_and_reproducible(write):
     assert p.scenarios[2].initial.omega == (0.5, 2.0, p.cases[2].values["initial.omega[2]"])
 
 
+def test_cases_change_only_their_own_copy_of_the_document(write):
+    """``apply`` copies only the tables along a case's paths: the file's document and every
+    other case keep their values (each case validated to its own ω, the base to the file's)."""
+    import copy
+
+    from rotlab.config.loader import read_toml
+    from rotlab.sweep.cases import apply
+
+    path = write("s.toml", SWEEP)
+    raw = read_toml(path)
+    before = copy.deepcopy(raw)
+    p = plan(path)
+    docs = [apply(raw, p.base, case.values) for case in p.cases]
+    assert raw == before
+    for doc, case, scenario in zip(docs, p.cases, p.scenarios):
+        assert "sweep" not in doc
+        assert doc["initial"]["omega"] == [case.values["initial.omega[0]"], 2.0, case.values["initial.omega[2]"]]
+        assert scenario.initial.omega == tuple(doc["initial"]["omega"])
+    assert docs[0]["body"] is raw["body"]  # untouched tables are shared, not copied
+
+
 def test_sphere_draw_has_the_magnitude(write):
     text = SWEEP.replace('"initial.omega[0]" = [0.0, 0.5]\n"initial.omega[2]" = { uniform = [-0.2, 0.2] }', '"initial.omega" = { sphere = 3.0 }')
     p = plan(write("s.toml", text))
