@@ -47,7 +47,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import all_finite
+from rotlab.core.dynamics import all_finite, store_row
 
 OK, NONFINITE = 0, 1
 
@@ -250,6 +250,6 @@ def dmv_advance(y, times, out, i_start, substeps, max_steps, model, order, coeff
         y[4], y[5], y[6] = m1 * inv1, m2 * inv2, m3 * inv3
         if not all_finite(y):
             return NONFINITE, i, steps
-        out[i, :] = y
+        store_row(out, i, y)
         i += 1
     return OK, i, steps

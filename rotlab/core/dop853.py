@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs
+from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs, store_row
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -138,7 +138,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
                 counters[2] += 3
                 while i < times.shape[0] and times[i] <= t_new:
                     if times[i] == t_new:
-                        out[i, :] = y_new
+                        store_row(out, i, y_new)
                     else:
                         _dense_eval(F, y, (times[i] - t) / h, out[i])
                     i += 1

@@ -59,6 +59,15 @@ def next_piece(t, t_end, breaks, b):
     return t_end, t_end, b
 
 
+@njit(cache=True, inline="always")
+def store_row(out, i, y):
+    """out[i, :] = y, element by element: numba's slice assignment from an array compiles a
+    formatted shape-mismatch message with it (string and unicode helpers: ~3 s of a kernel's
+    first compilation on an empty cache, measured on rk4)."""
+    for m in range(y.shape[0]):
+        out[i, m] = y[m]
+
+
 @njit(cache=True)
 def all_finite(y):
     for k in range(y.shape[0]):

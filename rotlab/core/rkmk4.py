@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs
+from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs, store_row
 from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
 
 OK, NONFINITE = 0, 1
@@ -132,6 +132,6 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, model):
                 t = end
         if not all_finite(y):
             return NONFINITE, i, steps
-        out[i, :] = y
+        store_row(out, i, y)
         i += 1
     return OK, i, steps

@@ -46,7 +46,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import all_finite
+from rotlab.core.dynamics import all_finite, store_row
 from rotlab.core.torques import conservative_torque, has_forces
 
 OK, NONFINITE = 0, 1
@@ -244,6 +244,6 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order)
         y[4], y[5], y[6] = l1 * inv1, l2 * inv2, l3 * inv3
         if not all_finite(y):
             return NONFINITE, i, steps
-        out[i, :] = y
+        store_row(out, i, y)
         i += 1
     return OK, i, steps

@@ -30,7 +30,7 @@ from functools import cache
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece
+from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, store_row
 from rotlab.core.quaternion import N_PRODUCTS, cross_array, rotate_quadratic
 from rotlab.core.torques import load_series, nonconservative_series, series_workspace, switch_step
 
@@ -203,7 +203,7 @@ def coefficients(t, y, order, model, c0, T, flags):
     """The Taylor coefficients X[0..order] of the state at (t, y), as ``taylor_advance`` forms
     them for a step from t (for checks and tools)."""
     X = np.zeros((order + 1, STATE_SIZE))
-    X[0, :] = y
+    store_row(X, 0, y)
     body = np.zeros((order + 1, 3))
     space = np.zeros((order + 1, 3))
     inputs, tape, stack = series_workspace(model, order)
