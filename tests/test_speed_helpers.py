@@ -149,3 +149,17 @@ def test_the_sweeps_nutation_is_the_angle_of_the_users_body_axis_in_space():
     direct = np.arccos(np.clip(rotate_to_space_array(q, np.broadcast_to(e, (len(q), 3))) @ d, -1.0, 1.0))
     np.testing.assert_allclose(nutation(traj), direct, rtol=0.0, atol=1e-7)
     assert np.ptp(direct) > 0.01  # the axis moves: the comparison is not of constants
+
+
+def test_the_kernels_bisection_is_numpys_searchsorted_right():
+    """``count_at_or_below`` (the kernels' next-breakpoint search) against
+    ``np.searchsorted(..., side="right")`` on sorted arrays with repeats, at the values
+    themselves, between them, beyond both ends and on an empty array."""
+    from rotlab.core.dynamics import count_at_or_below
+
+    rng = np.random.default_rng(5)
+    for size in (0, 1, 2, 3, 8, 33):
+        values = np.sort(rng.integers(0, 6, size=size).astype(float))
+        probes = np.concatenate([values, values + 0.5, values - 0.5, [-1e300, 1e300, -np.inf, np.inf]])
+        for x in probes:
+            assert count_at_or_below(values, float(x)) == np.searchsorted(values, x, side="right")

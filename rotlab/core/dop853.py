@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs, store_row
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs, store_row
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -83,7 +83,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     steps = 0
     rejected = False
     breaks = model.breaks
-    b = np.searchsorted(breaks, t, side="right")  # next breakpoint after t
+    b = count_at_or_below(breaks, t)  # next breakpoint after t
     while i < times.shape[0] and steps < max_steps:
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
         if h < min_step:

@@ -60,6 +60,20 @@ def next_piece(t, t_end, breaks, b):
 
 
 @njit(cache=True, inline="always")
+def count_at_or_below(values, x):
+    """How many of the sorted ``values`` are ≤ x: ``np.searchsorted(values, x, side="right")``
+    by bisection (numba's searchsorted compiles ~1 s of helpers into a kernel's first build)."""
+    lo, hi = 0, values.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if values[mid] <= x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True, inline="always")
 def store_row(out, i, y):
     """out[i, :] = y, element by element: numba's slice assignment from an array compiles a
     formatted shape-mismatch message with it (string and unicode helpers: ~3 s of a kernel's

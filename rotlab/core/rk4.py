@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, rhs, store_row
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs, store_row
 
 OK, NONFINITE = 0, 1
 
@@ -37,7 +37,7 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
     steps = 0
     i = i_start
     breaks = model.breaks
-    b = np.searchsorted(breaks, times[i_start - 1], side="right")  # next breakpoint
+    b = count_at_or_below(breaks, times[i_start - 1])  # next breakpoint
     while i < times.shape[0] and steps + substeps <= max_steps:
         t0 = times[i - 1]
         h_nominal = (times[i] - t0) / substeps

@@ -30,7 +30,7 @@ from functools import cache
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, next_piece, store_row
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, store_row
 from rotlab.core.quaternion import N_PRODUCTS, cross_array, rotate_quadratic
 from rotlab.core.torques import load_series, nonconservative_series, series_workspace, switch_step
 
@@ -168,7 +168,7 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0,
     t_end = times[times.shape[0] - 1]
     inputs, tape, stack = series_workspace(model, order)
     breaks = model.breaks
-    b = np.searchsorted(breaks, t, side="right")
+    b = count_at_or_below(breaks, t)
     steps = 0
     while i < times.shape[0] and steps < max_steps:
         for m in range(STATE_SIZE):
