@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import copy
 import difflib
 import re
 import signal
@@ -138,7 +137,7 @@ def input_error(exc: ValidationError, source: str) -> InputError:
 def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str, Any], duration: float | None) -> dict[str, Any]:
     if not overrides and duration is None:
         return dict(data)
-    merged = copy.deepcopy(dict(data))
+    merged = dict(data)  # set_at copies the tables it changes
 
     def file_scenario() -> Scenario:  # the file's own values, for indexing into a vector it omits
         try:
@@ -149,9 +148,7 @@ def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str
     for path, value in overrides.items():
         set_at(merged, path, value, path, model_defaults(file_scenario))
     if duration is not None:
-        time = merged.get("time")
-        if not isinstance(time, dict):
-            time = merged["time"] = {}
+        time = merged["time"] = dict(merged["time"]) if isinstance(merged.get("time"), dict) else {}
         start = time.get("start", 0.0)
         if isinstance(start, (int, float)) and not isinstance(start, bool):
             time["end"] = start + duration

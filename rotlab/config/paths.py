@@ -6,6 +6,7 @@ on the command line, ``overrides={...}`` in the Python API and the cases of a ``
 
 from __future__ import annotations
 
+import copy
 import re
 import tomllib
 from typing import Any, Callable
@@ -46,7 +47,9 @@ def parse_assignment(text: str) -> tuple[str, Any]:
 def set_at(data: dict[str, Any], path: str, value: Any, where: str, defaults: Defaults) -> None:
     """Set ``value`` at ``path`` in the raw scenario ``data`` (in place).  Missing tables are
     created; indexing into a vector the file does not give takes the model's default from
-    ``defaults`` first (``initial.omega[2]`` on a file without ``omega``)."""
+    ``defaults`` first (``initial.omega[2]`` on a file without ``omega``).  The tables and arrays
+    along the path are replaced by copies, so ``data`` may share the rest with the document it was
+    made from (a shallow copy of it) without changing that document."""
     parts = parse_key_path(path, where)
     node: Any = data
     for depth, part in enumerate(parts[:-1]):
@@ -54,13 +57,15 @@ def set_at(data: dict[str, Any], path: str, value: Any, where: str, defaults: De
         if isinstance(part, int):
             if not isinstance(node, list) or part >= len(node):
                 raise InputError(where, f"index [{part}] is out of range")
-            node = node[part]
-            continue
-        if not isinstance(node, dict):
-            raise InputError(where, f"'{part}' is inside a value, not a table")
-        if part not in node or node[part] is None:
-            node[part] = _as_lists(defaults(parts[: depth + 1]), where) if isinstance(nxt, int) else {}
-        node = node[part]
+        else:
+            if not isinstance(node, dict):
+                raise InputError(where, f"'{part}' is inside a value, not a table")
+            if part not in node or node[part] is None:
+                node[part] = _as_lists(defaults(parts[: depth + 1]), where) if isinstance(nxt, int) else {}
+        child = node[part]
+        if isinstance(child, (dict, list)):
+            child = node[part] = copy.copy(child)
+        node = child
     last = parts[-1]
     if isinstance(last, int):
         if not isinstance(node, list) or last >= len(node):

@@ -8,8 +8,8 @@ Internally Λ_P = Λ_U ∘ Λ_axes and ω_P = axesᵀ ω_U; every reported quant
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 import math
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, TypeVar
 
@@ -85,13 +85,12 @@ class Scene:
     @cached_property
     def content_key(self) -> tuple | None:
         """The loads and the principal moments as bytes (None with a Python torque)."""
-        loads = loads_key(self.loads)
-        return None if loads is None else (self.moments.tobytes(), loads)
+        return _content_key(self.moments, self.loads)
 
     @cached_property
     def is_principal(self) -> bool:
         """The user's body axes are the principal axes (no conversion of the series)."""
-        return bool(np.array_equal(self.axes, np.eye(3)))
+        return _is_identity(self.axes)
 
     @cached_property
     def rate_scale(self) -> float:
@@ -146,7 +145,7 @@ def build_scene(scenario: cfg.Scenario, torque: Callable | None = None, frame: s
     body frame in, M in ``frame``) compiled by numba (``rotlab.scene.loads.user_torque``)."""
     rigid = _rigid_part(scenario) if torque is None else _build_rigid(scenario, user_torque(torque, frame, _principal(scenario.body)[1]))
     q0 = initial_quaternion(scenario.initial)
-    if not rigid.principal:
+    if scenario.body.principal_moments is None:  # Λ_P = Λ_U ∘ Λ_axes
         q0 = quat.multiply(q0, rigid.fields["axes_quaternion"])
     omega0 = rigid.fields["axes"].T @ np.asarray(scenario.initial.omega, dtype=float)
     scene = Scene(scenario=scenario, q0=q0, omega0=omega0, **rigid.fields)
@@ -159,7 +158,6 @@ class _Rigid:
     """What a scene derives from its body and loads alone (the initial state aside)."""
 
     fields: dict[str, Any]  # Scene's fields from moments to symmetry_axis
-    principal: bool  # the user's axes are the principal axes
     properties: dict[str, Any]  # Scene's cached properties that depend on these alone
 
 
@@ -190,9 +188,8 @@ def _principal(body: cfg.Body) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _build_rigid(scenario: cfg.Scenario, user) -> _Rigid:
-    principal = scenario.body.principal_moments is not None
     moments, axes = _principal(scenario.body)
-    axes_q = np.array([1.0, 0.0, 0.0, 0.0]) if principal else quat.from_matrix(axes)
+    axes_q = np.array([1.0, 0.0, 0.0, 0.0]) if scenario.body.principal_moments is not None else quat.from_matrix(axes)
     loads = compile_loads(scenario, axes, moments, user)
     forces = active_forces(loads)
     has_work = has_nonconservative(loads)
@@ -201,10 +198,16 @@ def _build_rigid(scenario: cfg.Scenario, user) -> _Rigid:
     fields = dict(moments=moments, axes=axes, axes_quaternion=axes_q, loads=loads, kind=kind, kind_reason=reason,
                   has_potential=bool(len(forces)), has_work=has_work, field_direction=None if field is None else -field,
                   symmetry_axis=symmetry_axis)
-    content = loads_key(loads)
-    properties = {"is_principal": bool(np.array_equal(axes, np.eye(3))),
-                  "content_key": None if content is None else (moments.tobytes(), content)}
-    return _Rigid(fields, principal, properties)
+    return _Rigid(fields, {"is_principal": _is_identity(axes), "content_key": _content_key(moments, loads)})
+
+
+def _content_key(moments: np.ndarray, loads: LoadArrays) -> tuple | None:
+    loads_bytes = loads_key(loads)
+    return None if loads_bytes is None else (moments.tobytes(), loads_bytes)
+
+
+def _is_identity(axes: np.ndarray) -> bool:
+    return bool(np.array_equal(axes, np.eye(3)))
 
 
 def _common_direction(vectors: np.ndarray) -> np.ndarray | None:

@@ -8,7 +8,6 @@ from its number and the seed.
 
 from __future__ import annotations
 
-import copy
 import difflib
 import itertools
 from dataclasses import dataclass
@@ -77,27 +76,10 @@ def draw(dist: cfg.Distribution, rng: np.random.Generator) -> float | list[float
 
 
 def apply(raw: dict[str, Any], base: cfg.Scenario, values: dict[str, Any]) -> dict[str, Any]:
-    """The raw scenario dict with ``values`` set at their paths (no [sweep] section).  Only the
-    tables and arrays along those paths are copied (a deep copy of the whole document was half
+    """The raw scenario dict with ``values`` set at their paths (no [sweep] section).  ``set_at``
+    copies only the tables and arrays on those paths (a deep copy of the whole document was half
     of a case's validation); the rest is shared with ``raw``, which validation does not change."""
     data = {key: value for key, value in raw.items() if key != "sweep"}
     for path, value in values.items():
-        where = f"sweep.parameters.{path}"
-        _own_path(data, parse_key_path(path, where))
-        set_at(data, path, value, where, model_defaults(base))
+        set_at(data, path, value, f"sweep.parameters.{path}", model_defaults(base))
     return data
-
-
-def _own_path(data: dict[str, Any], parts: list[str | int]) -> None:
-    """Replace each table or array along ``parts`` (below ``data``) by a shallow copy of it."""
-    node: Any = data
-    for part in parts[:-1]:
-        if isinstance(part, int):
-            if not isinstance(node, list) or part >= len(node):
-                return  # set_at says what is wrong
-        elif not isinstance(node, dict) or part not in node:
-            return
-        child = node[part]
-        if isinstance(child, (dict, list)):
-            child = node[part] = copy.copy(child)
-        node = child
