@@ -88,29 +88,41 @@ def deferred(deliver: bool = True) -> Iterator[None]:
 class _CompilerLockShield:
     """numba event listener: stop signals held while the main thread holds numba's compiler lock
     (compiling, or loading a kernel from the on-disk cache), re-sent to the process when the
-    outermost hold ends, so the handler in force then (usually Python's) sees them."""
+    outermost hold ends, so the handler in force then (usually Python's) sees them.
 
-    def __init__(self) -> None:
-        self.depth = 0
-        self.saved: dict[int, object] = {}
+    The hold follows the lock itself, not a count of events: an event can be lost (a listener
+    that raises, e.g. a Ctrl-C delivered inside another listener, stops numba's broadcast), and a
+    count stuck above 0 held Ctrl-C for the rest of the process.  So the hold ends at an end event
+    after which the main thread no longer owns the lock, and a signal that finds no compilation
+    under way (a lost end) ends the hold and is delivered at once."""
+
+    def __init__(self, is_compiling: Callable[[], bool]) -> None:
+        self.is_compiling = is_compiling  # does this (the main) thread own numba's compiler lock?
+        self.saved: dict[int, object] | None = None
         self.received: list[int] = []
 
     def on_start(self, event: object) -> None:
-        if threading.current_thread() is not threading.main_thread():
+        if threading.current_thread() is not threading.main_thread() or self.saved is not None:
             return
-        self.depth += 1
-        if self.depth == 1:
-            self.received = []
-            self.saved = _hold(lambda signum, frame: self.received.append(signum))
+        self.received = []
+        self.saved = _hold(self._record)
 
     def on_end(self, event: object) -> None:
-        if threading.current_thread() is not threading.main_thread() or self.depth == 0:
+        if threading.current_thread() is not threading.main_thread() or self.saved is None:
             return
-        self.depth -= 1
-        if self.depth == 0:
-            _restore(self.saved)
-            if self.received:
-                signal.raise_signal(self.received[0])
+        if not self.is_compiling():  # the outermost hold ended (numba releases, then announces)
+            self._release()
+
+    def _record(self, signum: int, frame: object) -> None:
+        self.received.append(signum)
+        if not self.is_compiling():  # a hold whose end was lost: deliver now
+            self._release()
+
+    def _release(self) -> None:
+        saved, self.saved = self.saved, None
+        _restore(saved or {})
+        if self.received:
+            signal.raise_signal(self.received[0])
 
 
 _shield: _CompilerLockShield | None = None
@@ -123,8 +135,9 @@ def shield_numba_compilation() -> None:
     if _shield is not None:
         return
     from numba.core import event
+    from numba.core.compiler_lock import global_compiler_lock
 
-    shield = _CompilerLockShield()
+    shield = _CompilerLockShield(global_compiler_lock.is_locked)
 
     class Listener(event.Listener):  # numba's abstract listener, forwarding to the shield
         def on_start(self, ev: event.Event) -> None:
