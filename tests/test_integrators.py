@@ -39,6 +39,17 @@ def test_dop853_error_follows_tolerance(rtol, bound):
     assert error < bound
 
 
+def test_dop853_last_stage_is_the_solution_and_its_fsal_slope():
+    """The kernel takes y₁ = y₀ + h Σ b_j k_j from its 12th stage (one call site of the
+    right-hand side fewer to compile): that needs row 12 of A to be b exactly, and c₁₂ = 1."""
+    from scipy.integrate._ivp import dop853_coefficients as table
+
+    from rotlab.core import dop853
+
+    assert np.array_equal(dop853._A[dop853._STAGES, : dop853._STAGES], table.B)
+    assert not dop853._A[dop853._STAGES, dop853._STAGES :].any() and dop853._C[dop853._STAGES] == 1.0
+
+
 def test_euler_config_invariants_at_default_tolerance():
     """Issue 2 'done when': configs/euler.toml, dop853 defaults: drift of T and L_space < 1e-10."""
     traj = rotlab.simulate(CONFIGS / "euler.toml", method="dop853")

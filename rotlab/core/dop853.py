@@ -20,7 +20,6 @@ from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
 _A = np.ascontiguousarray(_coef.A, dtype=np.float64)  # (16, 16)
-_B = np.ascontiguousarray(_coef.B, dtype=np.float64)  # (12,)
 _C = np.ascontiguousarray(_coef.C, dtype=np.float64)  # (16,)
 _E3 = np.ascontiguousarray(_coef.E3, dtype=np.float64)  # (13,)
 _E5 = np.ascontiguousarray(_coef.E5, dtype=np.float64)  # (13,)
@@ -74,17 +73,20 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     F = np.empty((7, n))
     E5v = np.empty(n)
     E3v = np.empty(n)
-    rhs(t, y, K[0], model)
-    counters[2] += 1
-    if h <= 0.0:
-        h = initial_step(t, y, K[0], t_end, rtol, atol, model)
-        counters[2] += 1
     i = i_start
     steps = 0
     rejected = False
     breaks = model.breaks
     b = count_at_or_below(breaks, t)  # next breakpoint after t
+    fresh = True  # K[0] = f(t, y) is due: at the start and after a step that ended on a breakpoint
     while i < times.shape[0] and steps < max_steps:
+        if fresh:  # rhs is inlined at each call site: two in this loop, not four
+            rhs(t, y, K[0], model)
+            counters[2] += 1
+            fresh = False
+            if h <= 0.0:
+                h = initial_step(t, y, K[0], t_end, rtol, atol, model)
+                counters[2] += 1
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
         if h < min_step:
             return STEP_TOO_SMALL, i, t, h
@@ -96,16 +98,10 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
         # a step ending on a breakpoint sees the loads' left limit: its stages stop just before it
         at_break = t_new == limit and limit != t_end
         t_last = np.nextafter(t_new, -np.inf) if at_break else t_new
-        for s in range(1, _STAGES):
+        for s in range(1, _STAGES + 1):  # the last (FSAL) stage is f(t_last, y_new): A[12, :12] = B
             _stage(s, t, h, t_last, y, K, tmp, model)
         for m in range(STATE_SIZE):
-            y_new[m] = y[m]
-        for j in range(_STAGES):
-            bj = _B[j] * h
-            if bj != 0.0:
-                for m in range(STATE_SIZE):
-                    y_new[m] += bj * K[j, m]
-        rhs(t_last, y_new, K[_STAGES], model)
+            y_new[m] = tmp[m]
         counters[2] += _STAGES
         for m in range(STATE_SIZE):
             E5v[m] = 0.0
@@ -146,9 +142,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
                 y[m] = y_new[m]
                 K[0, m] = K[_STAGES, m]
             t = t_new
-            if at_break:  # the next step starts from the right limit of the loads
-                rhs(t, y, K[0], model)
-                counters[2] += 1
+            fresh = at_break  # the next step starts from the right limit of the loads
             if not all_finite(y):
                 return NONFINITE, i, t, h
             if err == 0.0:
@@ -168,7 +162,8 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
 
 @njit(cache=True, inline="always")
 def _stage(s, t, h, t_last, y, K, tmp, model):
-    """K[s] ← f(t + c_s h, y + h Σ_j a_sj K[j]), the stage time capped at ``t_last``."""
+    """K[s] ← f(t + c_s h, y + h Σ_j a_sj K[j]), the stage time capped at ``t_last``; stage 12
+    (c = 1, a_12j = b_j) at ``t_last`` itself, leaving y_new = y + h Σ b_j K[j] in ``tmp``."""
     for m in range(STATE_SIZE):
         tmp[m] = y[m]
     for j in range(s):
@@ -176,7 +171,7 @@ def _stage(s, t, h, t_last, y, K, tmp, model):
         if a != 0.0:
             for m in range(STATE_SIZE):
                 tmp[m] += a * K[j, m]
-    rhs(min(t + _C[s] * h, t_last), tmp, K[s], model)
+    rhs(t_last if s == _STAGES else min(t + _C[s] * h, t_last), tmp, K[s], model)
 
 
 @njit(cache=True)
