@@ -3,6 +3,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import signal
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,7 +30,13 @@ def pytest_report_header(config) -> str:
 
 def pytest_configure(config) -> None:
     """``ROTLAB_TESTS_INSTALLED=1`` (set by .ci/run): the tests must see the installed wheel, not
-    the checkout's rotlab/ folder (which would hide a file missing from the wheel)."""
+    the checkout's rotlab/ folder (which would hide a file missing from the wheel).
+
+    Ctrl-C as a terminal delivers it: a shell without job control starts a background command
+    with SIGINT ignored, every process after it inherits that (xdist workers, the runs the tests
+    start), and the tests that send SIGINT saw nothing happen (7 failures in such a CI run)."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     if os.environ.get("ROTLAB_TESTS_INSTALLED") == "1":
         import rotlab
 
