@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def qmul(a0, a1, a2, a3, b0, b1, b2, b3):
     """Λ ∘ M for scalar-first components; returns a 4-tuple."""
     return (
@@ -26,7 +26,7 @@ def qmul(a0, a1, a2, a3, b0, b1, b2, b3):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rotate_to_space(q0, q1, q2, q3, x, y, z):
     """R(Λ) v = Λ ∘ v ∘ Λ̃ for a unit Λ (v in body components → space components)."""
     # v' = v + 2 q0 (q × v) + 2 q × (q × v)
@@ -40,7 +40,7 @@ def rotate_to_space(q0, q1, q2, q3, x, y, z):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rotate_to_body(q0, q1, q2, q3, x, y, z):
     """R(Λ)ᵀ v = Λ̃ ∘ v ∘ Λ for a unit Λ (v in space components → body components)."""
     return rotate_to_space(q0, -q1, -q2, -q3, x, y, z)
