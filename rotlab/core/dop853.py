@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs, store_row
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs, rhs_called, store_row
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -47,7 +47,7 @@ def initial_step(t, y, f0, t_end, rtol, atol, model):
     h0 = min(h0, t_end - t)
     y1 = y + h0 * f0
     f1 = np.empty_like(y)
-    rhs(t + h0, y1, f1, model)
+    rhs_called(t + h0, y1, f1, model)
     d2 = _rms_scaled(f1 - f0, y, rtol, atol) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
@@ -80,8 +80,8 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     b = count_at_or_below(breaks, t)  # next breakpoint after t
     fresh = True  # K[0] = f(t, y) is due: at the start and after a step that ended on a breakpoint
     while i < times.shape[0] and steps < max_steps:
-        if fresh:  # rhs is inlined at each call site: two in this loop, not four
-            rhs(t, y, K[0], model)
+        if fresh:  # at the start and after a breakpoint only: rhs called; inlined in ``_stage`` (hot)
+            rhs_called(t, y, K[0], model)
             counters[2] += 1
             fresh = False
             if h <= 0.0:

@@ -13,7 +13,8 @@ specialises on the model's load groups with no call in between.  numba types an 
 anew at every call site, and that typing was most of a kernel's compile time, so helpers off
 the hot path of the built-in loads (the helpers below, ``torques._in_body``, the expression
 loads' torque, ``quaternion.rotate_quadratic``) are plain compiled functions, called (same
-numbers, bit for bit), and kernels keep their ``rhs`` call sites few (``dop853`` two, not four).
+numbers, bit for bit), and kernels keep their inlined ``rhs`` sites few (``dop853``: one in its
+stages, one in its dense output; its start and restarts at breakpoints call ``rhs_called``).
 The quaternion rotations stay inlined: called, they made gravity's kick 3.5% slower.  ``rk4`` on
 ``general.toml`` compiles in 12 s instead of 19; ``docs/benchmarks.md`` has the figures.
 """
@@ -26,7 +27,7 @@ from numba import njit
 from rotlab.core.state import P0, Q0, STATE_SIZE, WORK
 from rotlab.core.torques import conservative_torque, nonconservative_torque
 
-__all__ = ["STATE_SIZE", "all_finite", "euler_coefficients", "next_piece", "rhs"]
+__all__ = ["STATE_SIZE", "all_finite", "euler_coefficients", "next_piece", "rhs", "rhs_called"]
 
 
 def euler_coefficients(moments: np.ndarray) -> np.ndarray:
@@ -53,6 +54,14 @@ def rhs(t, y, dy, model):
     dy[P0 + 1] = euler[1] * r * p + (cy + ny) * euler[4]
     dy[P0 + 2] = euler[2] * p * q + (cz + nz) * euler[5]
     dy[WORK] = nx * p + ny * q + nz * r
+
+
+@njit(cache=True)
+def rhs_called(t, y, dy, model):
+    """``rhs``, called instead of inlined, for call sites off a kernel's hot path: numba types an
+    inlined ``rhs`` again at every site (~2 s each with general.toml's loads), this one once per
+    model type and process."""
+    rhs(t, y, dy, model)
 
 
 @njit(cache=True)
