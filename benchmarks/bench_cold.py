@@ -55,10 +55,13 @@ print(f"   all runs: compile/load {total:.1f} s, process {time.perf_counter() - 
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CONFIGS = os.path.join(os.path.dirname(HERE), "configs")
-FRESH_CASES = (  # (config, method or None for the config's own)
+FRESH_CASES = (  # (config, method or None for the config's own): every shipped config, then other kernels
+    (os.path.join(CONFIGS, "euler.toml"), None),
+    (os.path.join(CONFIGS, "dzhanibekov.toml"), None),
+    (os.path.join(CONFIGS, "lagrange.toml"), None),
     (os.path.join(CONFIGS, "general.toml"), None),
-    (os.path.join(CONFIGS, "general.toml"), "dop853"),
     (os.path.join(CONFIGS, "sweep_flip.toml"), None),
+    (os.path.join(CONFIGS, "general.toml"), "dop853"),
     (os.path.join(HERE, "scenes", "pd_drag.toml"), None),
     (os.path.join(HERE, "scenes", "pd_drag.toml"), "rk4"),
 )
