@@ -564,3 +564,23 @@ def test_a_compile_cut_short_does_not_leave_the_clock_running(tmp_path, monkeypa
     monkeypatch.setattr(stream_module, "FLUSH_SECONDS", 1e9)
     run, writing, _ = api.record(build_scene(rotlab.load(CONFIGS / "euler.toml", method="exact")), RecordingSink(tmp_path / "e.rrd"))
     assert writing >= 0.29 and run.stats.compile_seconds < 0.2
+
+
+def test_the_thinned_copy_of_a_run_stays_within_max_path_points():
+    """The end of a run computes every layout series of ``Thinned``'s samples at once, so their
+    number bounds the run's last memory peak: at most MAX_PATH_POINTS, whatever the length,
+    every k-th sample of the run from its first (k a power of two), in order."""
+    from rotlab.recording.geometry import MAX_PATH_POINTS
+    from rotlab.recording.writer import Thinned
+
+    thinned, start, total = Thinned(), 0, 0
+    for size in [16_384] * 300 + [5]:  # 4.9·10⁶ samples in flush-sized pieces
+        t = np.arange(start, start + size, dtype=float)
+        thinned.add(start, t, np.repeat(t[:, None], 8, axis=1))
+        start += size
+        total += size
+        assert thinned.count <= MAX_PATH_POINTS
+    t, state = thinned.arrays()
+    assert MAX_PATH_POINTS // 2 < t.shape[0] <= MAX_PATH_POINTS
+    assert t[0] == 0.0 and np.all(np.diff(t) == thinned.every) and thinned.every & (thinned.every - 1) == 0
+    assert t[-1] > total - 1 - thinned.every and np.array_equal(state[:, 3], t)
