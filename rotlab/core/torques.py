@@ -308,10 +308,12 @@ def expression_torque(t, y, rows, fn, axes, axes_q, moments):
 
 
 # ---- Taylor series of the loads (``rotlab.core.taylor``): coefficients in τ = time − t -----------
-# ``load_series``, ``nonconservative_series``, ``switch_step`` and ``series_workspace`` are called,
-# not inlined: numba types an inlined overload again in its caller, and inlined these four cost
-# 1.8 s of general.toml's cold taylor compile (5.6 -> 3.8 s); called, a step costs the same
-# (general.toml 1.61 µs, lagrange.toml 0.75 µs, pd_drag 22 µs a step, same-run A/B).
+# ``nonconservative_series``, ``switch_step`` and ``series_workspace`` are called, not inlined, and
+# ``load_series`` is a one-line overload around the compiled ``_time_series`` (one function for
+# the terms and the tables, whose absent group numba prunes as a None argument): numba types an
+# inlined overload again in its caller, and the inlined series cost general.toml's cold taylor
+# compile 2.1 s (5.6 -> 3.5 s); called, a step costs the same (general.toml 1.61 µs,
+# lagrange.toml 0.75 µs, pd_drag 22 µs a step, same-run A/B, results bit-identical).
 
 
 def load_series(t, order, model, body, space):
@@ -336,31 +338,18 @@ def _expression_series(k, t, X, P, ex, inputs, tape, stack):
     raise NotImplementedError("compiled only")
 
 
-@overload(load_series)
+@overload(load_series, inline="always")
 def _load_series(t, order, model, body, space):
-    def impl(t, order, model, body, space):
-        body[:, :] = 0.0
-        space[:, :] = 0.0
-        _terms_series(t, order, model.terms, body, space)
-        _tables_series(t, order, model.tables, model.table_t, model.table_v, body, space)
-
-    return impl
+    return lambda t, order, model, body, space: _time_series(t, order, model.terms, model.tables, model.table_t, model.table_v, body, space)
 
 
-def _terms_series(t, order, terms, body, space):
-    raise NotImplementedError("compiled only")
-
-
-def _tables_series(t, order, tables, table_t, table_v, body, space):
-    raise NotImplementedError("compiled only")
-
-
-@overload(_terms_series, inline="always")
-def _terms_series_impl(t, order, terms, body, space):
-    if isinstance(terms, types.NoneType):
-        return lambda t, order, terms, body, space: None
-
-    def impl(t, order, terms, body, space):
+@njit(cache=True)
+def _time_series(t, order, terms, tables, table_t, table_v, body, space):
+    """``load_series`` of the torque terms and tables (an absent group is None: numba prunes its
+    branch for that type)."""
+    body[:, :] = 0.0
+    space[:, :] = 0.0
+    if terms is not None:
         for k in range(terms.shape[0]):
             if not (terms[k, T_ON] <= t < terms[k, T_OFF]):
                 continue
@@ -377,16 +366,7 @@ def _terms_series_impl(t, order, terms, body, space):
                     for c in range(3):
                         target[j, c] += terms[k, T_AMP + c] * scale * phase
                     scale *= w / (j + 1)
-
-    return impl
-
-
-@overload(_tables_series, inline="always")
-def _tables_series_impl(t, order, tables, table_t, table_v, body, space):
-    if isinstance(tables, types.NoneType):
-        return lambda t, order, tables, table_t, table_v, body, space: None
-
-    def impl(t, order, tables, table_t, table_v, body, space):
+    if tables is not None:
         for k in range(tables.shape[0]):
             if not (tables[k, TB_ON] <= t < tables[k, TB_OFF]):
                 continue
@@ -400,8 +380,6 @@ def _tables_series_impl(t, order, tables, table_t, table_v, body, space):
                 target[0, c] += table_v[lo, c] + slope * (t - table_t[lo])
                 if order >= 1:
                     target[1, c] += slope
-
-    return impl
 
 
 @overload(nonconservative_series)
