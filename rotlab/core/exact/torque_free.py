@@ -43,7 +43,8 @@ moves the secular part into ψ̄ τ (p is odd, 2K-periodic, p(±K) = 0).  On the
 p(u) = −c √ν atan(√ν tanh u) / (1 + ν).
 
 Precision: the invariants are exact rationals (fractions.Fraction); λ, K, Π(n|m), ψ̄, |L| come from
-60-digit decimal arithmetic (Bulirsch's cel, Carlson's duplication).  The secular phases λ τ and ψ̄ τ
+60-digit decimal arithmetic (Bulirsch's cel), u0, used as a float only, from Carlson's duplication
+at 34 digits.  The secular phases λ τ and ψ̄ τ
 are formed in double-double and reduced modulo 2K and 4π, so that the error does not grow with τ
 beyond a few ulp of the reduced phase.  sn, cn, dn come from scipy.special.ellipj for m1 ≥ 0.5 and
 otherwise from the sech/tanh lattice sums (nome q1 = e^(−πK/K')), which keep full relative accuracy
@@ -68,6 +69,7 @@ from rotlab.core.exact.doubledouble import from_decimal, two_prod, two_sum
 __all__ = ["torque_free_solution"]
 
 _DIGITS = 60
+_U0_DIGITS = 34  # u0 = F(am u0 | m) is a float: 34 digits round it correctly (``_u0_integral``)
 _PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944592307816")
 _SERIES_BELOW_M1 = 0.5  # sn, cn, dn from the hyperbolic lattice sums when m1 < this (else ellipj)
 
@@ -137,9 +139,11 @@ def _cel(kc: Decimal, p: Decimal) -> Decimal:
         e = kc * em
 
 
-def _rf(x: Decimal, y: Decimal, z: Decimal) -> Decimal:
-    """Carlson's R_F by duplication (x, y, z ≥ 0, at most one zero)."""
-    tol = Decimal(10) ** (-_DIGITS // 6 - 1)
+def _rf(x: Decimal, y: Decimal, z: Decimal, digits: int = _DIGITS) -> Decimal:
+    """Carlson's R_F by duplication (x, y, z ≥ 0, at most one zero), to ``digits`` digits (the
+    active context's precision): stop when the deviations are below 10^(−digits/6 − 1), where the
+    fifth-order series leaves ~10^(−digits)."""
+    tol = Decimal(10) ** (-digits // 6 - 1)
     while True:
         mu = (x + y + z) / 3
         dx, dy = 1 - x / mu, 1 - y / mu
@@ -150,6 +154,15 @@ def _rf(x: Decimal, y: Decimal, z: Decimal) -> Decimal:
         sx, sy, sz = x.sqrt(), y.sqrt(), z.sqrt()
         lam = sx * (sy + sz) + sy * sz
         x, y, z = (x + lam) / 4, (y + lam) / 4, (z + lam) / 4
+
+
+def _u0_integral(cn0_sq: Decimal, dn0_sq: Decimal) -> Decimal:
+    """R_F(cn0², dn0², 1) for u0, which is used as a float only: to ``_U0_DIGITS`` digits, ~10⁻³³
+    relative after the duplication's roundings, so float(u0) is the correctly rounded value
+    except within ~10⁻³³ of a rounding boundary (60 digits took 3× as long: 12 duplications,
+    not 19, each cheaper)."""
+    with localcontext(prec=_U0_DIGITS):
+        return _rf(+cn0_sq, +dn0_sq, Decimal(1), _U0_DIGITS)
 
 
 # ---------------------------------------------------------------- quaternion pieces
@@ -285,7 +298,7 @@ def _elliptic_constants(inertia_g: np.ndarray, omega_g: np.ndarray) -> _Elliptic
         amp = [_dec(x).sqrt() for x in (e2 / (j1 * (j2 - j1)), e3 / (j2 * (j2 - j3)), e2 / (j3 * (j2 - j3)))]  # β, γ, α
         cn0_sq, dn0_sq = _dec(j3 * (j2 - j3) * w3 * w3 / e2), _dec(j2 * (j2 - j3) * w2 * w2 / e3)
         sn0 = _dec(j1 * (j2 - j1) * w1 * w1 / e2).sqrt() * (1 if w1 >= 0 else -1)
-        u0 = sn0 * _rf(cn0_sq, dn0_sq, Decimal(1)) if sn0 != 0 else Decimal(0)
+        u0 = sn0 * _u0_integral(cn0_sq, dn0_sq) if sn0 != 0 else Decimal(0)
         c = big_l * _dec(j2 - j3) / (_dec(j2 * j3) * lam)
         sqrt_nu = _dec(nu).sqrt()
         if m1 == 0:
