@@ -100,7 +100,8 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
     a failure or ``timeout`` (wall-clock seconds), keeping what was written; the sink is left
     open for the caller to close (to the target or the partial path) or abort.
     Returns the summary and the seconds spent converting and writing."""
-    from rotlab.methods.stepping import RunControl, controlled
+    from rotlab import compile_apart
+    from rotlab.methods.stepping import RunControl, controlled, timeout_message
     from rotlab.recording.stream import ChunkStream
     from rotlab.recording.writer import RecordingWriter
 
@@ -108,11 +109,23 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
     n = t.shape[0]
     stride = max(1, -(-n // scene.scenario.output.visual_samples))
     stats = RunStats(method=chosen.name, reason=reason, steps=0, rejected_steps=0, rhs_evaluations=0, seconds=0.0)
+    deadline = None if timeout is None else time.monotonic() + timeout
+    announce = None if progress is None else progress.compiling
     # numba compiles (or loads) the method's kernel and the writer's; that time is kept apart from both
-    with compile_clock(announce=None if progress is None else progress.compiling) as compiling:
+    with compile_clock(announce=announce) as compiling:
+        try:
+            apart = compile_apart.prepare(scene, chosen, settings, announce, deadline) if n >= compile_apart.LONG_RUN else None
+        except KeyboardInterrupt:  # Ctrl-C while a child compiled the kernels (it is killed): nothing was run
+            apart = compile_apart.Outcome(True, 0.0, interrupted=True)
         writer = RecordingWriter(sink, stride=stride)
         stream = ChunkStream(scene, stats, writer, scene.scenario.output.euler_angles, progress, n, clock=compiling)
-        control = RunControl(consumer=stream, deadline=None if timeout is None else time.monotonic() + timeout, timeout=timeout)
+        control = RunControl(consumer=stream, deadline=deadline, timeout=timeout)
+        if apart is not None and (apart.timed_out or apart.interrupted):  # stopped before the first sample
+            start = scene.scenario.time.start
+            stats.failure = interrupts.stopped_at(start) if apart.interrupted else timeout_message(control, start)
+            stats.failure += " (while a child process compiled the kernels)"
+            stats.interrupted = apart.interrupted
+            return stream.summary(), 0.0
         with controlled(control):
             started = time.perf_counter()
             solution = chosen.solve(scene, t, settings, progress)
@@ -127,6 +140,9 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
             stats.failure, stats.interrupted = interrupts.stopped_at(stream.last_time), True
             summary = stream.summary()
         stats.compile_seconds = compiling.seconds  # the writer's static part may have compiled too
+        if apart is not None and apart.seconds:
+            stats.compile_seconds += apart.seconds
+            stats.details = {**stats.details, "kernels": "compiled in a child process" if apart.compiled_apart else "compiled in this process (a child process could not)"}
     if stats.interrupted or summary.samples < solution.valid:  # Ctrl-C, maybe inside the writer: say what was kept
         stats.failure, stats.interrupted = interrupts.stopped_at(summary.end), True
     return summary, stream.seconds
