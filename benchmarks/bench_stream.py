@@ -4,6 +4,7 @@ and what each entity costs per sample.
     python benchmarks/bench_stream.py            # 10⁵, 10⁶, 10⁷ samples of every shipped config
     python benchmarks/bench_stream.py --full     # and 10⁸ (general.toml)
     python benchmarks/bench_stream.py --entities # bytes per entity per sample only
+    python benchmarks/bench_stream.py --cold     # every run on an empty numba cache (a first run)
 
 Every run is the installed CLI in a child process (`rotlab run CONFIG --duration D -o FILE`);
 peak memory is the child's maximum resident set (``os.wait4``), "before the first sample" the
@@ -29,11 +30,18 @@ CONFIGS = ("euler.toml", "dzhanibekov.toml", "lagrange.toml", "general.toml")
 ROTLAB = [sys.executable, "-m", "rotlab"]
 
 
-def run_child(config: Path, duration: float, out: Path) -> dict:
-    """One `rotlab run` in a child process: wall s, peak RSS MB, writing s, file MB."""
+def run_child(config: Path, duration: float, out: Path, cold: bool = False) -> dict:
+    """One `rotlab run` in a child process: wall s, peak RSS MB, writing s, file MB.  ``cold``:
+    with empty numba and formula caches, as a first run after installing."""
+    with tempfile.TemporaryDirectory() as caches:
+        env = dict(os.environ, NUMBA_CACHE_DIR=f"{caches}/numba", ROTLAB_CACHE=f"{caches}/rotlab") if cold else None
+        return _run_child(config, duration, out, env)
+
+
+def _run_child(config: Path, duration: float, out: Path, env: dict | None) -> dict:
     started = time.perf_counter()
     proc = subprocess.Popen([*ROTLAB, "run", str(config), "--duration", repr(duration), "-o", str(out), "--max-megabytes", "1e9"],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
     text = proc.stdout.read()
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - started
@@ -51,7 +59,7 @@ def lengths(full: bool) -> list[int]:
     return [10**5, 10**6, 10**7] + ([10**8] if full else [])
 
 
-def memory_table(full: bool) -> None:
+def memory_table(full: bool, cold: bool) -> None:
     """Run before anything large is imported: Linux keeps a parent's resident high-water mark in
     a forked and exec'ed child's ``ru_maxrss``, so the parent must stay small."""
     import tomllib
@@ -63,10 +71,10 @@ def memory_table(full: bool) -> None:
         for name in CONFIGS:
             config = ROOT / "configs" / name
             rate = tomllib.loads(config.read_text(encoding="utf-8")).get("time", {}).get("sample_rate", 100.0)
-            base = run_child(config, 2.0, out)
+            base = run_child(config, 2.0, out, cold)
             print(f"| {name} | before the first sample (2 s run) | {base['wall']:.2f} | | | | | {base['peak']:.0f} |", flush=True)
             for n in lengths(full and name == "general.toml"):
-                r = run_child(config, (n - 1) / rate, out)
+                r = run_child(config, (n - 1) / rate, out, cold)
                 print(f"| {name} | {r['samples']:,} | {r['wall']:.1f} | {r['writing']:.2f} | {r['samples'] / r['writing'] / 1e6:.2f} | "
                       f"{r['bytes'] / 1e6:,.1f} | {r['bytes'] / r['samples']:.0f} | {r['peak']:.0f} |", flush=True)
 
@@ -113,9 +121,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--full", action="store_true", help="also 10⁸ samples of general.toml (~10 GB of disk, minutes)")
     parser.add_argument("--entities", action="store_true", help="only the bytes per entity")
+    parser.add_argument("--cold", action="store_true", help="every run with empty numba and formula caches (a first run)")
     args = parser.parse_args()
     if not args.entities:
-        memory_table(args.full)  # first: see its docstring
+        memory_table(args.full, args.cold)  # first: see its docstring
         print()
     entity_table()
 
