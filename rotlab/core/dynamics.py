@@ -10,13 +10,17 @@ scene pays only for the loads it has).  Λ is not renormalised: |Λ| − 1 is re
 
 Inlining.  ``rhs`` and the load overloads are inlined by numba (``inline="always"``): a kernel
 specialises on the model's load groups with no call in between.  numba types an inlined function
-anew at every call site, and that typing was most of a kernel's compile time, so helpers off
-the hot path of the built-in loads (the helpers below, ``torques._in_body``, the expression
-loads' torque, ``quaternion.rotate_quadratic``) are plain compiled functions, called (same
-numbers, bit for bit), and kernels keep their inlined ``rhs`` sites few (``dop853``: one in its
-stages, one in its dense output; its start and restarts at breakpoints call ``rhs_called``).
-The quaternion rotations stay inlined: called, they made gravity's kick 3.5% slower.  ``rk4`` on
-``general.toml`` compiles in 12 s instead of 19; ``docs/benchmarks.md`` has the figures.
+anew at every call site, and that typing was most of a kernel's compile time (LLVM ~10–20%), so
+a kernel types ``rhs`` once and lets LLVM inline it: ``rhs_llvm_inlined`` (numba's
+``forceinline``, LLVM's ``alwaysinline``), called at the four stages of ``rk4`` and ``rkmk4`` and
+compiled once per model type and process, shared by them and by ``rhs_called`` (the cold sites
+of ``dop853``: its start and restarts).  ``dop853``'s stages are one ``forceinline`` function
+with ``rhs`` inlined by numba inside (``rhs_llvm_inlined`` there made ``general.toml`` 28% slower
+a step; this way it is 3–7% faster than with numba's inlining).  Helpers off the hot path of the
+built-in loads (the helpers below, ``torques._in_body``, the expression loads' torque,
+``quaternion.rotate_quadratic``) are plain compiled functions, called.  The quaternion rotations
+stay inlined by numba: called, they made gravity's kick 3.5% slower, forced 0.7%.  Every change
+gave the same numbers, bit for bit; ``docs/benchmarks.md`` has the compile times and steps.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from numba import njit
 from rotlab.core.state import P0, Q0, STATE_SIZE, WORK
 from rotlab.core.torques import conservative_torque, nonconservative_torque
 
-__all__ = ["STATE_SIZE", "all_finite", "euler_coefficients", "next_piece", "rhs", "rhs_called"]
+__all__ = ["STATE_SIZE", "all_finite", "euler_coefficients", "next_piece", "rhs", "rhs_called", "rhs_llvm_inlined"]
 
 
 def euler_coefficients(moments: np.ndarray) -> np.ndarray:
@@ -56,12 +60,19 @@ def rhs(t, y, dy, model):
     dy[WORK] = nx * p + ny * q + nz * r
 
 
+@njit(cache=True, forceinline=True)
+def rhs_llvm_inlined(t, y, dy, model):
+    """``rhs`` typed and lowered once per model type and process, then inlined by LLVM at every
+    call site (numba's ``forceinline``: the LLVM ``alwaysinline`` attribute)."""
+    rhs(t, y, dy, model)
+
+
 @njit(cache=True)
 def rhs_called(t, y, dy, model):
     """``rhs``, called instead of inlined, for call sites off a kernel's hot path: numba types an
-    inlined ``rhs`` again at every site (~2 s each with general.toml's loads), this one once per
-    model type and process."""
-    rhs(t, y, dy, model)
+    inlined ``rhs`` again at every site (~2 s each with general.toml's loads); this one is
+    ``rhs_llvm_inlined``'s, typed once per model type and process."""
+    rhs_llvm_inlined(t, y, dy, model)
 
 
 @njit(cache=True)

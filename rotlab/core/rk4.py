@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs, store_row
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs_llvm_inlined, store_row
 
 OK, NONFINITE = 0, 1
 
@@ -47,16 +47,16 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
             while t < t_end:  # one step, or its pieces between breakpoints
                 end, t_last, b = next_piece(t, t_end, breaks, b)
                 h = end - t
-                rhs(t, y, k1, model)
+                rhs_llvm_inlined(t, y, k1, model)
                 for m in range(n):
                     tmp[m] = y[m] + 0.5 * h * k1[m]
-                rhs(t + 0.5 * h, tmp, k2, model)
+                rhs_llvm_inlined(t + 0.5 * h, tmp, k2, model)
                 for m in range(n):
                     tmp[m] = y[m] + 0.5 * h * k2[m]
-                rhs(t + 0.5 * h, tmp, k3, model)
+                rhs_llvm_inlined(t + 0.5 * h, tmp, k3, model)
                 for m in range(n):
                     tmp[m] = y[m] + h * k3[m]
-                rhs(t_last, tmp, k4, model)
+                rhs_llvm_inlined(t_last, tmp, k4, model)
                 for m in range(n):
                     y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
                 steps += 1

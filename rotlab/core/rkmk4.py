@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs, store_row
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs_llvm_inlined, store_row
 from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
 
 OK, NONFINITE = 0, 1
@@ -94,28 +94,28 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, model):
                 end, t_last, b = next_piece(t, t_end, breaks, b)
                 h = end - t
                 # stage 1: θ = 0, dexp⁻¹ = identity
-                rhs(t, y, k1, model)
+                rhs_llvm_inlined(t, y, k1, model)
                 a1x, a1y, a1z = h * y[4], h * y[5], h * y[6]
                 # stage 2: θ = k1/2
                 ux, uy, uz = 0.5 * a1x, 0.5 * a1y, 0.5 * a1z
                 _stage_orientation(y, tmp, ux, uy, uz)
                 for m in range(4, n):
                     tmp[m] = y[m] + 0.5 * h * k1[m]
-                rhs(t + 0.5 * h, tmp, k2, model)
+                rhs_llvm_inlined(t + 0.5 * h, tmp, k2, model)
                 a2x, a2y, a2z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
                 # stage 3: θ = k2/2
                 ux, uy, uz = 0.5 * a2x, 0.5 * a2y, 0.5 * a2z
                 _stage_orientation(y, tmp, ux, uy, uz)
                 for m in range(4, n):
                     tmp[m] = y[m] + 0.5 * h * k2[m]
-                rhs(t + 0.5 * h, tmp, k3, model)
+                rhs_llvm_inlined(t + 0.5 * h, tmp, k3, model)
                 a3x, a3y, a3z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
                 # stage 4: θ = k3
                 ux, uy, uz = a3x, a3y, a3z
                 _stage_orientation(y, tmp, ux, uy, uz)
                 for m in range(4, n):
                     tmp[m] = y[m] + h * k3[m]
-                rhs(t_last, tmp, k4, model)
+                rhs_llvm_inlined(t_last, tmp, k4, model)
                 a4x, a4y, a4z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
                 # update
                 _stage_orientation(

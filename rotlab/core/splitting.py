@@ -94,7 +94,13 @@ _S3, _S5, _S7, _S9, _S11, _S13 = (-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 
 _C4, _C6, _C8, _C10, _C12, _C14 = (1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0, -1.0 / 3628800.0, 1.0 / 479001600.0, -1.0 / 87178291200.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
+def _kick_torque(y, model):
+    """``conservative_torque`` typed once, inlined by LLVM at both kicks (not by numba at each)."""
+    return conservative_torque(y, model)
+
+
+@njit(cache=True, forceinline=True)
 def sin_cos_small(x):
     """sin x, cos x for |x| ≤ 0.25 from their Taylor polynomials of degree 13 and 14 (truncation
     < 3e-21 relative), in Estrin form (short dependency chains): as accurate as libm (a few ulp)
@@ -107,7 +113,7 @@ def sin_cos_small(x):
     return s, c
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _half_angle(tau, l, inv):
     """For α = τ L_i / I_i: (d, s, e, σ) with (1 + d, s) = (cos(α/2), sin(α/2)) and
     (1 + e, σ) = (cos α, sin α); d = −2 sin²(α/4) and e = −2 sin²(α/2) are formed without
@@ -130,7 +136,7 @@ def _half_angle(tau, l, inv):
 # rotation, which keeps the random walk of |Λ| − 1 at the level of the one-product-per-step methods.
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _turn1(tau, a0, a1, a2, a3, l1, l2, l3, inv1):
     """R1(τ): P ∘ (cos(α/2), sin(α/2), 0, 0), (L2, L3) turned by −α."""
     d, s, e, sa = _half_angle(tau, l1, inv1)
@@ -145,7 +151,7 @@ def _turn1(tau, a0, a1, a2, a3, l1, l2, l3, inv1):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _turn2(tau, a0, a1, a2, a3, l1, l2, l3, inv2):
     """R2(τ): P ∘ (cos(α/2), 0, sin(α/2), 0), (L3, L1) turned by −α."""
     d, s, e, sa = _half_angle(tau, l2, inv2)
@@ -160,7 +166,7 @@ def _turn2(tau, a0, a1, a2, a3, l1, l2, l3, inv2):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _turn3(tau, a0, a1, a2, a3, l1, l2, l3, inv3):
     """R3(τ): P ∘ (cos(α/2), 0, 0, sin(α/2)), (L1, L2) turned by −α."""
     d, s, e, sa = _half_angle(tau, l3, inv3)
@@ -175,7 +181,7 @@ def _turn3(tau, a0, a1, a2, a3, l1, l2, l3, inv3):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _apply(q0, q1, q2, q3, a0, a1, a2, a3):
     """Λ ∘ P for P = (1 + a0, a1, a2, a3):  Λ + Λ ∘ (a0, a)."""
     return (
@@ -214,7 +220,7 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order)
                     q0, q1, q2, q3 = _apply(q0, q1, q2, q3, a0, a1, a2, a3)
                     a0 = a1 = a2 = a3 = 0.0
                     y[0], y[1], y[2], y[3] = q0, q1, q2, q3
-                    cx, cy, cz = conservative_torque(y, model)
+                    cx, cy, cz = _kick_torque(y, model)
                     pk += 0.5 * g
                     l1 += pk * cx
                     l2 += pk * cy
@@ -235,7 +241,7 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order)
             q0, q1, q2, q3 = _apply(q0, q1, q2, q3, a0, a1, a2, a3)
         if pk != 0.0:
             y[0], y[1], y[2], y[3] = q0, q1, q2, q3
-            cx, cy, cz = conservative_torque(y, model)
+            cx, cy, cz = _kick_torque(y, model)
             l1 += pk * cx
             l2 += pk * cy
             l3 += pk * cz

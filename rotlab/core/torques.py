@@ -229,7 +229,7 @@ def table_value(tt, tv, first, stop, t):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _to_user(axes, x, y, z):
     """Principal-frame components → the user's body frame (r_U = axes r_P)."""
     return (axes[0, 0] * x + axes[0, 1] * y + axes[0, 2] * z,
@@ -237,7 +237,7 @@ def _to_user(axes, x, y, z):
             axes[2, 0] * x + axes[2, 1] * y + axes[2, 2] * z)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _to_principal(axes, x, y, z):
     """The user's body frame → principal components (r_P = axesᵀ r_U)."""
     return (axes[0, 0] * x + axes[1, 0] * y + axes[2, 0] * z,
@@ -245,13 +245,13 @@ def _to_principal(axes, x, y, z):
             axes[0, 2] * x + axes[1, 2] * y + axes[2, 2] * z)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _to_user_quaternion(axes_q, l0, l1, l2, l3):
     """Λ_U = Λ ∘ Λ̃_axes (linear in Λ: also maps Taylor coefficients)."""
     return qmul(l0, l1, l2, l3, axes_q[0], -axes_q[1], -axes_q[2], -axes_q[3])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def expression_inputs(t, y, rows, k, axes, axes_q, moments):
     """(t, ω, Λ, γ, L) in the user's body frame for expression load ``rows[k]`` (14 numbers):
     ω_U = axes ω, L_U = axes (I ω), Λ_U = Λ ∘ Λ̃_axes, γ_U = axes Rᵀ up(t) with
@@ -272,7 +272,7 @@ def expression_inputs(t, y, rows, k, axes, axes_q, moments):
     return t, w0, w1, w2, u0, u1, u2, u3, g0, g1, g2, m0, m1, m2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def expression_output(y, rows, k, axes, vx, vy, vz):
     """The torque (principal body frame) of the evaluated components v: a torque or a force at
     the load's point, in the body frame (user's axes) or the space frame."""
@@ -516,7 +516,7 @@ def expression_series(k, t, X, P, rows, code, consts, axes, axes_q, moments, inp
     return nx, ny, nz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _up_coefficient(row, t, m):
     """Coefficient m of up(t + τ) = cos(ν(t + τ)) a + sin(ν(t + τ)) b."""
     nu = row[EX_RATE]
