@@ -16,7 +16,9 @@ a kernel types ``rhs`` once and lets LLVM inline it: ``rhs_llvm_inlined`` (numba
 compiled once per model type and process, shared by them and by ``rhs_called`` (the cold sites
 of ``dop853``: its start and restarts).  ``dop853``'s stages are one ``forceinline`` function
 with ``rhs`` inlined by numba inside (``rhs_llvm_inlined`` there made ``general.toml`` 28% slower
-a step; this way it is 3–7% faster than with numba's inlining).  Helpers off the hot path of the
+a step; this way it is 3–7% faster than with numba's inlining).  Functions called at several
+sites whose types do not involve the model (``rkmk4``'s exponential map, ``splitting``'s turns)
+are ``forceinline`` too: typed once per process, not once per kernel and model type.  Helpers off the hot path of the
 built-in loads (the helpers below, ``torques._in_body``, the expression loads' torque,
 ``quaternion.rotate_quadratic``) are plain compiled functions, called.  The quaternion rotations
 stay inlined by numba: called, they made gravity's kick 3.5% slower, forced 0.7%.  Every change

@@ -28,7 +28,7 @@ from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
 OK, NONFINITE = 0, 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def expmap(x, y, z):
     """Exp(θ) = (cos(|θ|/2), sin(|θ|/2) θ/|θ|) as (e0, e1, e2, e3) with e0 = cos(|θ|/2) − 1
     = −2 sin²(|θ|/4), free of cancellation for small |θ| (see ``_stage_orientation``)."""
@@ -46,7 +46,7 @@ def expmap(x, y, z):
     return -2.0 * s4 * s4, f * x, f * y, f * z
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _dexpinv(ux, uy, uz, wx, wy, wz):
     """dexp⁻¹_{−u}(w) truncated: w + ½ u × w + (1/12) u × (u × w)."""
     cx = uy * wz - uz * wy
@@ -58,7 +58,7 @@ def _dexpinv(ux, uy, uz, wx, wy, wz):
     return wx + 0.5 * cx + dx / 12.0, wy + 0.5 * cy + dy / 12.0, wz + 0.5 * cz + dz / 12.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _stage_orientation(y, tmp, ux, uy, uz):
     """tmp[0:4] ← Λ₀ ∘ Exp(u) = Λ₀ + Λ₀ ∘ (e0, e): Λ₀ is rounded once."""
     e0, e1, e2, e3 = expmap(ux, uy, uz)
