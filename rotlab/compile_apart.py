@@ -99,12 +99,15 @@ def prepare(scene: Scene, method: Method, settings: Settings, announce: Callable
 
 
 def _loads_from_cache(scene: Scene, method: Method, settings: Settings) -> bool:
-    """Does the rehearsal run with compiling refused (every kernel loaded, or already in memory)?"""
+    """Does the rehearsal run with compiling refused (every kernel loaded, or already in memory)?
+    Any other error counts as yes: the run itself meets it and reports it where it belongs."""
     try:
         with compiling_refused():
             rehearse(scene, method, settings)
     except WouldCompile:
         return False
+    except Exception:  # noqa: BLE001 - not this module's to report
+        return True
     return True
 
 

@@ -160,3 +160,20 @@ def test_when_the_child_cannot_leave_loadable_kernels_the_run_compiles_them_itse
     got = compile_apart.prepare(scene, get_method("rk4"), None)
     assert (got.compiled_apart, got.timed_out) == outcome
     assert not kernel.signatures  # nothing compiled in this process yet: the run will, if it must
+
+
+def test_a_rehearsal_that_fails_otherwise_leaves_the_error_to_the_run(monkeypatch):
+    """An error other than a refused compile (a bug, a scene that fails at once) starts no child:
+    the run meets it itself and reports it as it always has."""
+    from rotlab import compile_apart
+    from rotlab.methods.registry import get_method
+    from rotlab.scene.scene import build_scene
+    from tests.helpers import scenario
+
+    def broken(scene, method, settings):
+        raise ValueError("not a compile")
+
+    monkeypatch.setattr(compile_apart, "rehearse", broken)
+    monkeypatch.setattr(compile_apart, "_compile_in_child", lambda *args: pytest.fail("no child expected"))
+    scene = build_scene(scenario(body={"principal_moments": [1.0, 2.0, 3.0]}, initial={"omega": [0.1, 1.0, 0.1]}))
+    assert compile_apart.prepare(scene, get_method("rk4"), None) == compile_apart.Outcome(False, 0.0)
