@@ -35,7 +35,7 @@ from rotlab.config.models import Scenario
 from rotlab.methods.base import NO_STEPS, Method, Settings
 from rotlab.scene.scene import Scene
 
-LONG_RUN = 1_000_000  # samples: from here on a run's kernels are compiled apart
+LONG_RUN = 100_000  # samples: from here on a run's kernels are compiled apart (a default shipped run has ≤ 2,001)
 REHEARSAL_SAMPLES = 3
 
 
