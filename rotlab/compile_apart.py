@@ -53,7 +53,8 @@ class Outcome:
 
 def rehearse(scene: Scene, method: Method, settings: Settings) -> None:
     """Call every numba kernel a streamed run of ``scene`` calls, on its first samples: the
-    method's (streamed, as ``rotlab run`` does) and the recording's load views'."""
+    method's (streamed, as ``rotlab run`` does) and the recording's for the loads it evaluates
+    with one (``loads_view.compiled``)."""
     from rotlab.methods.stepping import RunControl, SampleTimes, controlled
     from rotlab.recording import loads_view
 
@@ -64,7 +65,7 @@ def rehearse(scene: Scene, method: Method, settings: Settings) -> None:
         solution = method.solve(scene, t, settings, None)
     q_p, w_p = solution.state[:, :4], solution.state[:, 4:7]  # the last window's rows: [valid − len, valid)
     times = np.asarray(t[solution.valid - q_p.shape[0]:solution.valid], dtype=np.float64)
-    for view in loads_view.load_views(scene):
+    for view in filter(loads_view.compiled, loads_view.load_views(scene)):
         loads_view.torques(scene, view, times, q_p, w_p)
 
 
@@ -73,8 +74,7 @@ def needs_rehearsal(scene: Scene, method: Method) -> bool:
     with one)?"""
     from rotlab.recording import loads_view
 
-    return method.stepping != NO_STEPS or any(v.arrays.expressions is not None or v.arrays.user is not None
-                                              for v in loads_view.load_views(scene))
+    return method.stepping != NO_STEPS or any(map(loads_view.compiled, loads_view.load_views(scene)))
 
 
 def prepare(scene: Scene, method: Method, settings: Settings, announce: Callable[[bool], None] | None = None,

@@ -69,9 +69,15 @@ def _build(scene) -> list[LoadView]:
     return out
 
 
+def compiled(view: LoadView) -> bool:
+    """Is the load evaluated by the numba kernel ``_torques`` (expressions, a Python torque)
+    rather than by NumPy (``array_torques``)?"""
+    return view.arrays.expressions is not None or view.arrays.user is not None
+
+
 def torques(scene, view: LoadView, t: np.ndarray, q_p: np.ndarray, w_p: np.ndarray) -> np.ndarray:
     """(N, 3) torque of one load, principal body frame, at the given samples (principal state)."""
-    if view.arrays.expressions is None and view.arrays.user is None:
+    if not compiled(view):
         return array_torques(view.arrays, np.asarray(t, dtype=np.float64), q_p, w_p)
     out = np.empty((t.shape[0], 3))
     _torques(np.ascontiguousarray(t, dtype=np.float64), np.ascontiguousarray(q_p), np.ascontiguousarray(w_p), view.model, out)
