@@ -139,8 +139,11 @@ def _compile_in_child(scenario: Scenario, method: str, settings: Settings, deadl
     child = subprocess.Popen([sys.executable, "-P", "-m", "rotlab.compile_apart"], stdin=subprocess.PIPE,
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     try:
-        with child.stdin:
-            child.stdin.write(pickle.dumps((scenario, method, settings)))
+        try:
+            with child.stdin:
+                child.stdin.write(pickle.dumps((scenario, method, settings)))
+        except BrokenPipeError:  # the child ended before reading: its exit status says it failed
+            pass
         return child.wait(None if deadline is None else max(deadline - time.monotonic(), 0.0))
     except subprocess.TimeoutExpired:
         return None

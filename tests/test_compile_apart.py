@@ -180,3 +180,13 @@ def test_a_rehearsal_that_fails_otherwise_leaves_the_error_to_the_run(monkeypatc
     monkeypatch.setattr(compile_apart, "_compile_in_child", lambda *args: pytest.fail("no child expected"))
     scene = build_scene(scenario(body={"principal_moments": [1.0, 2.0, 3.0]}, initial={"omega": [0.1, 1.0, 0.1]}))
     assert compile_apart.prepare(scene, get_method("rk4"), None) == compile_apart.Outcome(False, 0.0)
+
+
+def test_a_child_that_ends_before_reading_its_input_is_a_failed_child(monkeypatch):
+    """Writing the arguments to a child that already exited (its stdin closed) must not raise
+    out of the run: it is a child that failed, and the run compiles in process."""
+    from rotlab import compile_apart
+
+    monkeypatch.setattr(compile_apart.sys, "executable", "/bin/false")
+    monkeypatch.setattr(compile_apart.pickle, "dumps", lambda obj: b"x" * (1 << 22))  # more than a pipe holds
+    assert compile_apart._compile_in_child(None, "rk4", None, None) == 1
