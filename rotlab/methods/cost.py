@@ -40,7 +40,8 @@ CONSTANTS = {  # python benchmarks/fit_cost_model.py, 2026-11-23, 1-min load 1.5
     "exact_asymmetric": {"per_call": 0.00109, "per_sample": 9.28e-07},
     "exact_axisymmetric": {"per_call": 0.000473, "per_sample": 4.06e-07},
     "exact_lagrange": {"per_call": 0.0024, "per_sample": 1.71e-06},
-    "dmv": {"per_call": 6.84e-06, "per_step_a": 3.65e-08, "per_step_b": 1.11e-07, "per_sample": 7.2e-08},
+    # dmv refitted 2026-11-25 (``dmv_costs`` alone, 1-min load 0.5) after its step became a Newton solve
+    "dmv": {"per_call": 6.9e-06, "per_step_a": 5.06e-08, "per_step_b": 1.19e-08, "per_sample": 4.71e-08},
     "splitting-2": {"free": 5.64e-08, "forces": 9.35e-08, "per_call": 6.4e-06, "per_sample": 2.94e-08},
     "splitting-4": {"free": 2.82e-07, "forces": 4.47e-07, "per_call": 6.42e-06, "per_sample": 3.14e-08},
     "splitting-6": {"free": 8.86e-07, "forces": 8.02e-07, "per_call": 6.73e-06, "per_sample": 1.86e-08},
