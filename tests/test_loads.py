@@ -254,8 +254,7 @@ def test_taylor_coefficients_of_an_expression_scene_are_the_rhs():
              {"type": "pd_control", "kp": 1.0, "kd": 0.5, "target": [0.0, 0.0, 1.0, 0.0], "max_torque": 10.0}]
     scene = build_scene(_scenario(loads, "taylor"))
     y = np.array([*scene.q0, 0.4, -0.2, 0.9, 0.0])
-    c0, T, flags = kernel_constants(scene)
-    X = taylor.coefficients(0.7, y, 12, scene.model, c0, T, flags)
+    X = taylor.coefficients(0.7, y, 12, scene.model, *kernel_constants(scene))
     dy = np.zeros(8)
     rhs(0.7, y, dy, scene.model)
     np.testing.assert_allclose(X[1], dy, rtol=1e-14, atol=1e-14)

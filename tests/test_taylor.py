@@ -50,8 +50,7 @@ def _config(name: str, **solver):
 
 def _series_at(scene, t0: float, y: np.ndarray, order: int) -> np.ndarray:
     """The Taylor coefficients X[0..order] of the state at (t0, y), as the kernel computes them."""
-    c0, T, flags = scene.cached("taylor", lambda: kernel_constants(scene))
-    return taylor.coefficients(t0, y, order, scene.model, c0, T, flags)
+    return taylor.coefficients(t0, y, order, scene.model, *scene.cached("taylor", lambda: kernel_constants(scene)))
 
 
 def _f(scene, t0: float, y: np.ndarray) -> np.ndarray:
@@ -60,11 +59,22 @@ def _f(scene, t0: float, y: np.ndarray) -> np.ndarray:
     return dy
 
 
-def test_first_two_coefficients_are_the_right_hand_side_and_its_derivative():
-    """X[1] = f(t, y) to 1e-14 relative (every load kind and frame active at t = 0.7), and
-    2 X[2] = df/dt along the flow = (f(t+δ, y+δf) − f(t−δ, y−δf)) / 2δ to 1e-6 relative
-    (central difference, δ = 1e-5: truncation ~δ² |f'''|)."""
-    scene = _scene()
+# a lone constant force and only body-frame loads besides: the kernel's γ = Rᵀ F path
+GAMMA_LOADS = [
+    {"type": "gravity", "g": [0.3, -0.2, -9.81]},
+    {"type": "harmonic_torque", "frame": "body", "amplitude": [0.02, 0.01, -0.05], "angular_frequency": 7.0, "phase": -1.0},
+    {"type": "damping", "coefficient": 0.01},
+]
+
+
+@pytest.mark.parametrize("loads, gamma", [(EVERY_LOAD, False), (GAMMA_LOADS, True), (GAMMA_LOADS[:1], True)],
+                         ids=["products", "gamma-with-body-loads", "gamma-gravity-only"])
+def test_first_two_coefficients_are_the_right_hand_side_and_its_derivative(loads, gamma):
+    """X[1] = f(t, y) to 1e-14 relative (every load kind and frame active at t = 0.7; and a lone
+    force, through γ = Rᵀ F), and 2 X[2] = df/dt along the flow = (f(t+δ, y+δf) − f(t−δ, y−δf)) / 2δ
+    to 1e-6 relative (central difference, δ = 1e-5: truncation ~δ² |f'''|)."""
+    scene = _scene(loads)
+    assert kernel_constants(scene)[3][3] is gamma
     rng = np.random.default_rng(7)
     for _ in range(5):
         q = rng.normal(size=4)

@@ -10,6 +10,10 @@ Cauchy products (u v)^[k] = Σ_{j=0..k} u^[j] v^[k−j] and y^[k+1] = f^[k] / (k
 Loads (body components, principal frame; products P_ij = λ_i λ_j, i ≤ j, 10 series):
 * a constant space vector v seen in the body: Rᵀ v = v + L(P, v), L bilinear (``rotate_quadratic``);
   so every constant force gives p × Rᵀ F = p × F + (p × L(·, F)) P: a 3 × 10 matrix (``force_map``);
+* one constant force and nothing else in space (gravity: the heavy, Lagrange and Kovalevskaya tops)
+  is cheaper through γ = Rᵀ F, which obeys Poisson's equation γ̇ = γ × ω: the torque p × γ, with
+  (γ × ω)^[k] = Σ_j γ^[j] × ω^[k−j] (6 products a term, against the 10 products λ_i λ_j and a 3 × 10
+  map), γ^[0] = F + L(P^[0], F) at the start of each step (``lever_force`` = [p, F]);
 * body-frame time functions b(τ) (harmonic terms, table segments): their own series;
 * space-frame time functions s(τ): (Rᵀ s)^[k] = s^[k] + Σ_j L(P^[j], s^[k−j]);
 * damping −d ω.
@@ -65,15 +69,19 @@ def _quadratic_maps() -> np.ndarray:
 
 
 @njit(cache=True)
-def series(t, X, order, model, c0, T, body, space, P, M, has_products, has_space, has_work, inputs, tape, stack):
+def series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_products, has_space, has_work, has_gamma,
+           inputs, tape, stack):
     """Fill X[1..order] (Taylor coefficients of the state, X[0] given) and M[0..order−1] (the
     non-conservative torque, body components, ``rotlab.core.torques.nonconservative_series``).
-    P holds the products' coefficients."""
+    P holds the products' coefficients; G (with ``has_gamma``) those of γ = Rᵀ F."""
     euler = model.euler
+    if has_gamma:
+        _gamma_start(X, lever_force, P, G)
     for k in range(order):
         a0 = a1 = a2 = a3 = 0.0
         e0 = e1 = e2 = 0.0
         s00 = s01 = s02 = s03 = s11 = s12 = s13 = s22 = s23 = s33 = 0.0
+        g0 = g1 = g2 = 0.0
         for j in range(k + 1):
             l0, l1, l2, l3 = X[j, 0], X[j, 1], X[j, 2], X[j, 3]
             p, q, r = X[k - j, 4], X[k - j, 5], X[k - j, 6]
@@ -84,6 +92,10 @@ def series(t, X, order, model, c0, T, body, space, P, M, has_products, has_space
             e0 += X[j, 5] * r
             e1 += X[j, 6] * p
             e2 += X[j, 4] * q
+            if has_gamma:  # (γ × ω)^[k]
+                g0 += G[j, 1] * r - G[j, 2] * q
+                g1 += G[j, 2] * p - G[j, 0] * r
+                g2 += G[j, 0] * q - G[j, 1] * p
             if has_products:
                 u0, u1, u2, u3 = X[k - j, 0], X[k - j, 1], X[k - j, 2], X[k - j, 3]
                 s00 += l0 * u0
@@ -109,7 +121,14 @@ def series(t, X, order, model, c0, T, body, space, P, M, has_products, has_space
                 tx += c0[0]
                 ty += c0[1]
                 tz += c0[2]
-        nx, ny, nz = nonconservative_series(k, t, X, P, model, body, space, has_space, inputs, tape, stack)
+        if has_gamma:  # p × γ^[k]
+            px, py, pz = lever_force[0, 0], lever_force[0, 1], lever_force[0, 2]
+            tx += py * G[k, 2] - pz * G[k, 1]
+            ty += pz * G[k, 0] - px * G[k, 2]
+            tz += px * G[k, 1] - py * G[k, 0]
+        nx = ny = nz = 0.0
+        if has_work:  # else no load does work: the series below is zero (a call per order saved)
+            nx, ny, nz = nonconservative_series(k, t, X, P, model, body, space, has_space, inputs, tape, stack)
         M[k, 0], M[k, 1], M[k, 2] = nx, ny, nz
         work = 0.0
         if has_work:
@@ -124,6 +143,21 @@ def series(t, X, order, model, c0, T, body, space, P, M, has_products, has_space
         X[k + 1, 5] = inv * (euler[1] * e1 + euler[4] * (ty + ny))
         X[k + 1, 6] = inv * (euler[2] * e2 + euler[5] * (tz + nz))
         X[k + 1, 7] = inv * work
+        if has_gamma:
+            G[k + 1, 0] = inv * g0
+            G[k + 1, 1] = inv * g1
+            G[k + 1, 2] = inv * g2
+
+
+@njit(cache=True)
+def _gamma_start(X, lever_force, P, G):
+    """γ^[0] = Rᵀ F = F + L(P^[0], F) from Λ = X[0, 0:4], as the products would give it."""
+    l0, l1, l2, l3 = X[0, 0], X[0, 1], X[0, 2], X[0, 3]
+    P[0], P[1], P[2], P[3], P[4] = l0 * l0, l0 * l1, l0 * l2, l0 * l3, l1 * l1
+    P[5], P[6], P[7], P[8], P[9] = l1 * l2, l1 * l3, l2 * l2, l2 * l3, l3 * l3
+    fx, fy, fz = lever_force[1, 0], lever_force[1, 1], lever_force[1, 2]
+    lx, ly, lz = rotate_quadratic(P, 0, fx, fy, fz)
+    G[0, 0], G[0, 1], G[0, 2] = fx + lx, fy + ly, fz + lz
 
 
 @njit(cache=True)
@@ -154,13 +188,14 @@ def evaluate(X, order, s, out):
 
 
 @njit(cache=True)
-def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0, T, flags, counters):
+def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0, T, lever_force, flags, counters):
     """Advance from (t, y), writing ``out[i]`` for every sample passed, until all samples are
     written or ``max_steps`` steps were taken; steps end at every time in ``model.breaks``.
-    ``flags`` = (has_products, has_space, has_work); ``counters`` (int64[1]) += steps.
+    ``flags`` = (has_products, has_space, has_work, has_gamma); ``counters`` (int64[1]) += steps.
     Returns (status, next sample index, t)."""
-    has_products, has_space, has_work = flags
+    has_products, has_space, has_work, has_gamma = flags
     X = np.zeros((order + 1, STATE_SIZE))
+    G = np.zeros((order + 1, 3))
     P = np.zeros(N_PRODUCTS * (order + 1))
     M = np.zeros((order + 1, 3))
     body = np.zeros((order + 1, 3))
@@ -177,7 +212,8 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0,
         limit, _, b = next_piece(t, t_end, breaks, b)
         cut = -1.0
         for _ in range(3):  # formed again when a switch of an expression sits at t (``switch_step``)
-            series(t, X, order, model, c0, T, body, space, P, M, has_products, has_space, has_work, inputs, tape, stack)
+            series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_products, has_space, has_work, has_gamma,
+                   inputs, tape, stack)
             h = min(step_size(X, order, y, rtol, atol), limit - t)
             cut = switch_step(t, model, tape, order, h)
             if cut >= 0.0:
@@ -199,7 +235,7 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0,
 
 
 @njit(cache=True)
-def coefficients(t, y, order, model, c0, T, flags):
+def coefficients(t, y, order, model, c0, T, lever_force, flags):
     """The Taylor coefficients X[0..order] of the state at (t, y), as ``taylor_advance`` forms
     them for a step from t (for checks and tools)."""
     X = np.zeros((order + 1, STATE_SIZE))
@@ -208,6 +244,6 @@ def coefficients(t, y, order, model, c0, T, flags):
     space = np.zeros((order + 1, 3))
     inputs, tape, stack = series_workspace(model, order)
     load_series(t, order, model, body, space)
-    series(t, X, order, model, c0, T, body, space, np.zeros(N_PRODUCTS * (order + 1)), np.zeros((order + 1, 3)),
-           flags[0], flags[1], flags[2], inputs, tape, stack)
+    series(t, X, order, model, c0, T, lever_force, np.zeros((order + 1, 3)), body, space, np.zeros(N_PRODUCTS * (order + 1)),
+           np.zeros((order + 1, 3)), flags[0], flags[1], flags[2], flags[3], inputs, tape, stack)
     return X

@@ -43,7 +43,7 @@ class Taylor:
         order = self.order_for(settings)
         if not MIN_ORDER <= order <= MAX_ORDER:
             raise InputError("solver.order", f"taylor takes orders {MIN_ORDER} to {MAX_ORDER}, not {order}")
-        c0, T, flags = scene.shared("taylor", lambda: kernel_constants(scene))
+        c0, T, lever_force, flags = scene.shared("taylor", lambda: kernel_constants(scene))
         model = scene.model
         y = initial_state(scene.q0, scene.omega0)
         counters = np.zeros(1, dtype=np.int64)
@@ -52,7 +52,7 @@ class Taylor:
         def advance(times: np.ndarray, out: np.ndarray, i: int, budget: int) -> tuple[int, int, int]:
             before = int(counters[0])
             status, i, clock["t"] = kernel.taylor_advance(y, clock["t"], times, out, i, order, settings.rtol, settings.atol, budget,
-                                                          model, c0, T, flags, counters)
+                                                          model, c0, T, lever_force, flags, counters)
             return status, i, int(counters[0]) - before
 
         def describe(status: int, times: np.ndarray, out: np.ndarray, i: int) -> str:
@@ -65,14 +65,19 @@ class Taylor:
 
 
 def kernel_constants(scene: Scene) -> tuple:
-    """The kernel's per-scene arguments besides ``scene.model``: the force map (c₀, T) and
-    (has_products, has_space, has_work); expressions need the products (their γ, Rᵀ M)."""
+    """The kernel's per-scene arguments besides ``scene.model``: the force map (c₀, T), the lever
+    and force [p, F] of a lone constant force, and (has_products, has_space, has_work, has_gamma).
+    A lone constant force with nothing else in space goes through γ = Rᵀ F (``has_gamma``);
+    several forces, space-frame loads and expressions need the products (expressions: their γ, Rᵀ M)."""
     loads = scene.loads
     forces = active_forces(loads)
-    c0, T = kernel.force_map(forces)
     has_space = bool(np.any(loads.terms[:, 0] == SPACE) or np.any(loads.tables[:, 0] == SPACE))
-    flags = (len(forces) > 0 or has_space or loads.expressions is not None, has_space, has_nonconservative(loads))
-    return c0, T, flags
+    has_gamma = len(forces) == 1 and not has_space and loads.expressions is None
+    c0, T = kernel.force_map(forces[:0] if has_gamma else forces)
+    lever_force = np.array(forces[0].reshape(2, 3)) if has_gamma else np.zeros((2, 3))
+    flags = ((len(forces) > 0 and not has_gamma) or has_space or loads.expressions is not None, has_space,
+             has_nonconservative(loads), has_gamma)
+    return c0, T, lever_force, flags
 
 
 METHOD = Taylor()
