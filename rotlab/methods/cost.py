@@ -47,8 +47,9 @@ CONSTANTS = {  # python benchmarks/fit_cost_model.py, 2026-11-23, 1-min load 1.5
     "splitting-6": {"free": 8.86e-07, "forces": 8.02e-07, "per_call": 6.73e-06, "per_sample": 1.86e-08},
     "splitting-8": {"free": 9.56e-07, "forces": 1.53e-06, "per_call": 7.05e-06, "per_sample": 2.91e-08},
     "rk4": {"free": 4.09e-08, "forces": 9.06e-08, "loads": 2.61e-07, "per_call": 6.18e-06, "per_sample": 6.72e-09},
-    "taylor": {"free": {"a": 1.5e-07, "b": 2.38e-09}, "forces": {"a": 1.9e-07, "b": 2.81e-09}, "loads": {"a": 3.08e-07, "b": 5.45e-09},
-               "per_sample": 3.35e-08, "per_call": 8.36e-06},
+    # taylor refitted 2026-11-25 (``taylor_costs`` alone, 1-min load 0.7) after a lone force went through γ = Rᵀ F
+    "taylor": {"free": {"a": 1.71e-07, "b": 1.55e-09}, "forces": {"a": 2.12e-07, "b": 2.21e-09}, "loads": {"a": 3.4e-07, "b": 5.22e-09},
+               "per_sample": 3.37e-08, "per_call": 8.78e-06},
     # one-time, in a process: numba's first use (``init``: its target context imports its numpy and BLAS
     # support) and loading a kernel from the on-disk cache (``load``); 1-min load 4.4 during this part
     "first_use": {"init": 0.977, "load": {"taylor": 0.0279, "dmv": 0.0326, "rk4": 0.0338}},
