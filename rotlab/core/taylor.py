@@ -179,12 +179,29 @@ def step_size(X, order, y, rtol, atol):
 
 @njit(cache=True)
 def evaluate(X, order, s, out):
-    """out ← Σ_k X[k] s^k (Horner, all components together)."""
-    for m in range(STATE_SIZE):
-        out[m] = X[order, m]
+    """out ← Σ_k X[k] s^k (Horner; the 8 components in locals, not in ``out``, which the
+    compiler cannot keep in registers: 33 → 27 ns a sample at order 13, same values)."""
+    o0, o1, o2, o3, o4, o5, o6, o7 = X[order, 0], X[order, 1], X[order, 2], X[order, 3], X[order, 4], X[order, 5], X[order, 6], X[order, 7]
     for k in range(order - 1, -1, -1):
-        for m in range(STATE_SIZE):
-            out[m] = out[m] * s + X[k, m]
+        o0, o1, o2, o3 = o0 * s + X[k, 0], o1 * s + X[k, 1], o2 * s + X[k, 2], o3 * s + X[k, 3]
+        o4, o5, o6, o7 = o4 * s + X[k, 4], o5 * s + X[k, 5], o6 * s + X[k, 6], o7 * s + X[k, 7]
+    out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7] = o0, o1, o2, o3, o4, o5, o6, o7
+
+
+@njit(cache=True)
+def evaluate_pair(X, order, s, r, out_s, out_r):
+    """``evaluate`` at s and at r together: two independent Horner chains hide each other's
+    latency (23 ns a sample at order 13, against 27 alone; same values)."""
+    a0, a1, a2, a3, a4, a5, a6, a7 = X[order, 0], X[order, 1], X[order, 2], X[order, 3], X[order, 4], X[order, 5], X[order, 6], X[order, 7]
+    b0, b1, b2, b3, b4, b5, b6, b7 = a0, a1, a2, a3, a4, a5, a6, a7
+    for k in range(order - 1, -1, -1):
+        x0, x1, x2, x3, x4, x5, x6, x7 = X[k, 0], X[k, 1], X[k, 2], X[k, 3], X[k, 4], X[k, 5], X[k, 6], X[k, 7]
+        a0, a1, a2, a3 = a0 * s + x0, a1 * s + x1, a2 * s + x2, a3 * s + x3
+        a4, a5, a6, a7 = a4 * s + x4, a5 * s + x5, a6 * s + x6, a7 * s + x7
+        b0, b1, b2, b3 = b0 * r + x0, b1 * r + x1, b2 * r + x2, b3 * r + x3
+        b4, b5, b6, b7 = b4 * r + x4, b5 * r + x5, b6 * r + x6, b7 * r + x7
+    out_s[0], out_s[1], out_s[2], out_s[3], out_s[4], out_s[5], out_s[6], out_s[7] = a0, a1, a2, a3, a4, a5, a6, a7
+    out_r[0], out_r[1], out_r[2], out_r[3], out_r[4], out_r[5], out_r[6], out_r[7] = b0, b1, b2, b3, b4, b5, b6, b7
 
 
 @njit(cache=True)
@@ -222,7 +239,10 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0,
         if t_new - t < 10.0 * (np.nextafter(t, np.inf) - t):
             return STEP_TOO_SMALL, i, t
         h = t_new - t
-        while i < times.shape[0] and times[i] <= t_new:
+        while i + 1 < times.shape[0] and times[i + 1] <= t_new:  # the step's samples, two at a time
+            evaluate_pair(X, order, times[i] - t, times[i + 1] - t, out[i], out[i + 1])
+            i += 2
+        if i < times.shape[0] and times[i] <= t_new:
             evaluate(X, order, times[i] - t, out[i])
             i += 1
         evaluate(X, order, h, y)
