@@ -69,13 +69,14 @@ def _quadratic_maps() -> np.ndarray:
 
 
 @njit(cache=True)
-def series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_products, has_space, has_work, has_gamma,
-           inputs, tape, stack):
+def series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_products, has_space, has_work, inputs, tape, stack):
     """Fill X[1..order] (Taylor coefficients of the state, X[0] given) and M[0..order−1] (the
     non-conservative torque, body components, ``rotlab.core.torques.nonconservative_series``).
-    P holds the products' coefficients; G (with ``has_gamma``) those of γ = Rᵀ F."""
+    P holds the products' coefficients; G those of γ = Rᵀ F when ``lever_force`` is given (when
+    it is None, numba prunes the γ code from the compiled kernel: no compile time for scenes
+    without a lone force)."""
     euler = model.euler
-    if has_gamma:
+    if lever_force is not None:
         _gamma_start(X, lever_force, P, G)
     for k in range(order):
         a0 = a1 = a2 = a3 = 0.0
@@ -92,7 +93,7 @@ def series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_pro
             e0 += X[j, 5] * r
             e1 += X[j, 6] * p
             e2 += X[j, 4] * q
-            if has_gamma:  # (γ × ω)^[k]
+            if lever_force is not None:  # (γ × ω)^[k]
                 g0 += G[j, 1] * r - G[j, 2] * q
                 g1 += G[j, 2] * p - G[j, 0] * r
                 g2 += G[j, 0] * q - G[j, 1] * p
@@ -121,7 +122,7 @@ def series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_pro
                 tx += c0[0]
                 ty += c0[1]
                 tz += c0[2]
-        if has_gamma:  # p × γ^[k]
+        if lever_force is not None:  # p × γ^[k]
             px, py, pz = lever_force[0, 0], lever_force[0, 1], lever_force[0, 2]
             tx += py * G[k, 2] - pz * G[k, 1]
             ty += pz * G[k, 0] - px * G[k, 2]
@@ -143,7 +144,7 @@ def series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_pro
         X[k + 1, 5] = inv * (euler[1] * e1 + euler[4] * (ty + ny))
         X[k + 1, 6] = inv * (euler[2] * e2 + euler[5] * (tz + nz))
         X[k + 1, 7] = inv * work
-        if has_gamma:
+        if lever_force is not None:
             G[k + 1, 0] = inv * g0
             G[k + 1, 1] = inv * g1
             G[k + 1, 2] = inv * g2
@@ -181,36 +182,40 @@ def step_size(X, order, y, rtol, atol):
 def evaluate(X, order, s, out):
     """out ← Σ_k X[k] s^k (Horner; the 8 components in locals, not in ``out``, which the
     compiler cannot keep in registers: 33 → 27 ns a sample at order 13, same values)."""
-    o0, o1, o2, o3, o4, o5, o6, o7 = X[order, 0], X[order, 1], X[order, 2], X[order, 3], X[order, 4], X[order, 5], X[order, 6], X[order, 7]
+    o0 = X[order, 0]
+    o1 = X[order, 1]
+    o2 = X[order, 2]
+    o3 = X[order, 3]
+    o4 = X[order, 4]
+    o5 = X[order, 5]
+    o6 = X[order, 6]
+    o7 = X[order, 7]
     for k in range(order - 1, -1, -1):
-        o0, o1, o2, o3 = o0 * s + X[k, 0], o1 * s + X[k, 1], o2 * s + X[k, 2], o3 * s + X[k, 3]
-        o4, o5, o6, o7 = o4 * s + X[k, 4], o5 * s + X[k, 5], o6 * s + X[k, 6], o7 * s + X[k, 7]
-    out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7] = o0, o1, o2, o3, o4, o5, o6, o7
-
-
-@njit(cache=True)
-def evaluate_pair(X, order, s, r, out_s, out_r):
-    """``evaluate`` at s and at r together: two independent Horner chains hide each other's
-    latency (23 ns a sample at order 13, against 27 alone; same values)."""
-    a0, a1, a2, a3, a4, a5, a6, a7 = X[order, 0], X[order, 1], X[order, 2], X[order, 3], X[order, 4], X[order, 5], X[order, 6], X[order, 7]
-    b0, b1, b2, b3, b4, b5, b6, b7 = a0, a1, a2, a3, a4, a5, a6, a7
-    for k in range(order - 1, -1, -1):
-        x0, x1, x2, x3, x4, x5, x6, x7 = X[k, 0], X[k, 1], X[k, 2], X[k, 3], X[k, 4], X[k, 5], X[k, 6], X[k, 7]
-        a0, a1, a2, a3 = a0 * s + x0, a1 * s + x1, a2 * s + x2, a3 * s + x3
-        a4, a5, a6, a7 = a4 * s + x4, a5 * s + x5, a6 * s + x6, a7 * s + x7
-        b0, b1, b2, b3 = b0 * r + x0, b1 * r + x1, b2 * r + x2, b3 * r + x3
-        b4, b5, b6, b7 = b4 * r + x4, b5 * r + x5, b6 * r + x6, b7 * r + x7
-    out_s[0], out_s[1], out_s[2], out_s[3], out_s[4], out_s[5], out_s[6], out_s[7] = a0, a1, a2, a3, a4, a5, a6, a7
-    out_r[0], out_r[1], out_r[2], out_r[3], out_r[4], out_r[5], out_r[6], out_r[7] = b0, b1, b2, b3, b4, b5, b6, b7
+        o0 = o0 * s + X[k, 0]
+        o1 = o1 * s + X[k, 1]
+        o2 = o2 * s + X[k, 2]
+        o3 = o3 * s + X[k, 3]
+        o4 = o4 * s + X[k, 4]
+        o5 = o5 * s + X[k, 5]
+        o6 = o6 * s + X[k, 6]
+        o7 = o7 * s + X[k, 7]
+    out[0] = o0
+    out[1] = o1
+    out[2] = o2
+    out[3] = o3
+    out[4] = o4
+    out[5] = o5
+    out[6] = o6
+    out[7] = o7
 
 
 @njit(cache=True)
 def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0, T, lever_force, flags, counters):
     """Advance from (t, y), writing ``out[i]`` for every sample passed, until all samples are
     written or ``max_steps`` steps were taken; steps end at every time in ``model.breaks``.
-    ``flags`` = (has_products, has_space, has_work, has_gamma); ``counters`` (int64[1]) += steps.
-    Returns (status, next sample index, t)."""
-    has_products, has_space, has_work, has_gamma = flags
+    ``flags`` = (has_products, has_space, has_work); ``lever_force`` = [p, F] of a lone force or
+    None; ``counters`` (int64[1]) += steps.  Returns (status, next sample index, t)."""
+    has_products, has_space, has_work = flags
     X = np.zeros((order + 1, STATE_SIZE))
     G = np.zeros((order + 1, 3))
     P = np.zeros(N_PRODUCTS * (order + 1))
@@ -229,8 +234,7 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0,
         limit, _, b = next_piece(t, t_end, breaks, b)
         cut = -1.0
         for _ in range(3):  # formed again when a switch of an expression sits at t (``switch_step``)
-            series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_products, has_space, has_work, has_gamma,
-                   inputs, tape, stack)
+            series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_products, has_space, has_work, inputs, tape, stack)
             h = min(step_size(X, order, y, rtol, atol), limit - t)
             cut = switch_step(t, model, tape, order, h)
             if cut >= 0.0:
@@ -239,10 +243,7 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0,
         if t_new - t < 10.0 * (np.nextafter(t, np.inf) - t):
             return STEP_TOO_SMALL, i, t
         h = t_new - t
-        while i + 1 < times.shape[0] and times[i + 1] <= t_new:  # the step's samples, two at a time
-            evaluate_pair(X, order, times[i] - t, times[i + 1] - t, out[i], out[i + 1])
-            i += 2
-        if i < times.shape[0] and times[i] <= t_new:
+        while i < times.shape[0] and times[i] <= t_new:
             evaluate(X, order, times[i] - t, out[i])
             i += 1
         evaluate(X, order, h, y)
@@ -265,5 +266,5 @@ def coefficients(t, y, order, model, c0, T, lever_force, flags):
     inputs, tape, stack = series_workspace(model, order)
     load_series(t, order, model, body, space)
     series(t, X, order, model, c0, T, lever_force, np.zeros((order + 1, 3)), body, space, np.zeros(N_PRODUCTS * (order + 1)),
-           np.zeros((order + 1, 3)), flags[0], flags[1], flags[2], flags[3], inputs, tape, stack)
+           np.zeros((order + 1, 3)), flags[0], flags[1], flags[2], inputs, tape, stack)
     return X

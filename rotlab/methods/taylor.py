@@ -66,17 +66,16 @@ class Taylor:
 
 def kernel_constants(scene: Scene) -> tuple:
     """The kernel's per-scene arguments besides ``scene.model``: the force map (c₀, T), the lever
-    and force [p, F] of a lone constant force, and (has_products, has_space, has_work, has_gamma).
-    A lone constant force with nothing else in space goes through γ = Rᵀ F (``has_gamma``);
-    several forces, space-frame loads and expressions need the products (expressions: their γ, Rᵀ M)."""
+    and force [p, F] of a lone constant force (else None), and (has_products, has_space, has_work).
+    A lone constant force with nothing else in space goes through γ = Rᵀ F; several forces,
+    space-frame loads and expressions need the products (expressions: their γ, Rᵀ M)."""
     loads = scene.loads
     forces = active_forces(loads)
     has_space = bool(np.any(loads.terms[:, 0] == SPACE) or np.any(loads.tables[:, 0] == SPACE))
-    has_gamma = len(forces) == 1 and not has_space and loads.expressions is None
-    c0, T = kernel.force_map(forces[:0] if has_gamma else forces)
-    lever_force = np.array(forces[0].reshape(2, 3)) if has_gamma else np.zeros((2, 3))
-    flags = ((len(forces) > 0 and not has_gamma) or has_space or loads.expressions is not None, has_space,
-             has_nonconservative(loads), has_gamma)
+    lone_force = len(forces) == 1 and not has_space and loads.expressions is None
+    c0, T = kernel.force_map(forces[:0] if lone_force else forces)
+    lever_force = np.array(forces[0].reshape(2, 3)) if lone_force else None
+    flags = ((len(forces) > 0 and not lone_force) or has_space or loads.expressions is not None, has_space, has_nonconservative(loads))
     return c0, T, lever_force, flags
 
 
