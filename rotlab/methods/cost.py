@@ -51,8 +51,10 @@ CONSTANTS = {  # python benchmarks/fit_cost_model.py, 2026-11-23, 1-min load 1.5
     "taylor": {"free": {"a": 1.71e-07, "b": 1.55e-09}, "forces": {"a": 2.12e-07, "b": 2.21e-09}, "loads": {"a": 3.4e-07, "b": 5.22e-09},
                "per_sample": 3.37e-08, "per_call": 8.78e-06},
     # one-time, in a process: numba's first use (``init``: its target context imports its numpy and BLAS
-    # support) and loading a kernel from the on-disk cache (``load``); 1-min load 4.4 during this part
-    "first_use": {"init": 0.977, "load": {"taylor": 0.0279, "dmv": 0.0326, "rk4": 0.0338}},
+    # support) and loading a kernel from the on-disk cache (``load``); refitted 2026-11-25 on an idle
+    # machine (``first_use_costs`` alone, load 0.3–0.6): the previous 0.977 s and 28–34 ms loads, measured
+    # at load 4.4, made auto keep ``exact`` ~3.6× too long in loops and sweeps
+    "first_use": {"init": 0.267, "load": {"taylor": 0.0112, "dmv": 0.0081, "rk4": 0.0045}},
     "error_constants": {"dmv-8": 8.4e-06, "dmv-10": 2.53e-07, "dmv-12": 7.36e-09, "splitting-2": 0.0152, "splitting-4": 0.000738,
                         "splitting-6": 5.58e-05, "splitting-8": 3.76e-08, "rk4": 0.00252},
     "taylor_radians_per_step": 0.614,  # median over the bench problems at order 13, rtol 1e-10 (range 0.381–1.12)
