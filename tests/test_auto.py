@@ -205,3 +205,28 @@ def test_sweep_workers_are_told_their_share_of_the_cases(monkeypatch):
     # not with a per-case --timeout: every new worker's first case would load the kernel, run out of
     # time, and its replacement likewise (found by review: 184 of 184 cases timed out)
     assert {task[2] for task in seen["tasks"]} == {0}
+
+
+def test_taylor_loaded_for_gravity_alone_is_not_ready_for_gravity_with_a_space_torque(tmp_path):
+    """taylor's kernel is specialised on the model's type and on whether a lone force goes through
+    γ = Rᵀ F: gravity with a body-frame torque and gravity with a space-frame torque share their
+    load groups but not their specialisation, so after the first the second is not counted as
+    loaded (auto would otherwise expect no load or compile for it)."""
+    base = {"body": {"principal_moments": [1.0, 1.5, 2.0], "mass": 1.0, "center_of_mass": [0.0, 0.0, 0.3]},
+            "initial": {"omega": [0.1, 0.2, 5.0]}, "time": {"end": 0.5, "samples": 11}}
+    body_torque = {**base, "loads": [{"type": "gravity"}, {"type": "torque", "frame": "body", "value": [0.0, 0.0, 0.01]}]}
+    space_torque = {**base, "loads": [{"type": "gravity"}, {"type": "torque", "frame": "space", "value": [0.0, 0.0, 0.01]}]}
+    code = (
+        "import rotlab\n"
+        "from rotlab.config import parse_scenario\n"
+        "from rotlab.methods import choose\n"
+        "from rotlab.scene.scene import build_scene\n"
+        f"a, b = (parse_scenario(d) for d in ({body_torque!r}, {space_torque!r}))\n"
+        "before = choose._kernel_ready('taylor', build_scene(a))\n"
+        "rotlab.simulate(a, method='taylor')\n"
+        "print(before, choose._kernel_ready('taylor', build_scene(a)), choose._kernel_ready('taylor', build_scene(b)))\n"
+        "rotlab.simulate(b, method='taylor')\n"
+        "print(choose._kernel_ready('taylor', build_scene(b)))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
+    assert done.stdout.split() == ["False", "True", "False", "True"]

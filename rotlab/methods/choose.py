@@ -144,6 +144,19 @@ _KERNELS = {"taylor": ("rotlab.core.taylor", "taylor_advance"), "dmv": ("rotlab.
             "splitting": ("rotlab.core.splitting", "splitting_advance"), "rk4": ("rotlab.core.rk4", "rk4_advance")}
 
 
+def _taylor_lever_is_none(scene: Scene) -> bool:
+    """taylor's kernel is also specialised on whether a lone force goes through γ (its
+    ``lever_force`` argument is an array or None): two scenes with the same load groups can need
+    two specialisations (gravity with a body-frame torque, gravity with a space-frame one)."""
+    from rotlab.methods.taylor import lone_force
+
+    return scene.shared("taylor lever is none", lambda: lone_force(scene) is None)
+
+
+# what a kernel is specialised on besides the model's type: (argument, is it None for this scene)
+_VARIANTS = {"taylor": ("lever_force", _taylor_lever_is_none)}
+
+
 def _numba_ready() -> bool:
     """Has some numba kernel run in this process (its target context is set up)?"""
     return "numba.np.arraymath" in sys.modules
@@ -152,7 +165,8 @@ def _numba_ready() -> bool:
 def _kernel_ready(name: str, scene: Scene) -> bool:
     """Has ``name``'s kernel been compiled or loaded in this process for this scene's load
     groups?  numba specialises a kernel on the model's type (absent load groups are None), so a
-    kernel loaded for a heavy body still compiles (or loads) again for a top without damping."""
+    kernel loaded for a heavy body still compiles (or loads) again for a top without damping;
+    and on what ``_VARIANTS`` names (taylor: whether a lone force goes through γ)."""
     module_name, attr = _KERNELS.get(name, ("", ""))
     module = sys.modules.get(module_name)
     if module is None:
@@ -162,7 +176,9 @@ def _kernel_ready(name: str, scene: Scene) -> bool:
     if overloads is None:  # not a numba dispatcher (NUMBA_DISABLE_JIT): nothing to load
         return True
     groups = scene.shared("load groups", lambda: _load_groups(scene.loads))
-    key = (name, groups)
+    argument, is_none = _VARIANTS.get(name, (None, None))
+    variant = is_none(scene) if is_none else None
+    key = (name, groups, variant)
     seen = _READY.get(key)  # True, or the kernel's number of specialisations when it was found absent
     if seen is True or seen == len(overloads):
         return seen is True
@@ -173,10 +189,21 @@ def _kernel_ready(name: str, scene: Scene) -> bool:
         model = numba.typeof(scene.model)
         if groups is not None:
             _MODEL_TYPES[groups] = model
-    ready = any(model in signature for signature in kernel.signatures)
+    position = kernel.py_func.__code__.co_varnames.index(argument) if argument else -1
+    ready = any(model in signature and _variant_matches(variant, signature, position) for signature in kernel.signatures)
     if groups is not None:
         _READY[key] = True if ready else len(overloads)
     return ready
+
+
+def _variant_matches(variant: bool | None, signature: tuple, position: int) -> bool:
+    """Whether the argument at ``position`` of a compiled ``signature`` is None exactly when
+    ``variant`` says so (no variant: any signature matches)."""
+    if variant is None:
+        return True
+    from numba import types
+
+    return (signature[position] == types.none) == variant
 
 
 def _load_groups(loads) -> tuple | None:

@@ -66,17 +66,30 @@ class Taylor:
 
 def kernel_constants(scene: Scene) -> tuple:
     """The kernel's per-scene arguments besides ``scene.model``: the force map (c₀, T), the lever
-    and force [p, F] of a lone constant force (else None), and (has_products, has_space, has_work).
-    A lone constant force with nothing else in space goes through γ = Rᵀ F; several forces,
-    space-frame loads and expressions need the products (expressions: their γ, Rᵀ M)."""
+    and force [p, F] of a lone constant force (``lone_force``, else None), and (has_products,
+    has_space, has_work).  Several forces, space-frame loads and expressions need the products
+    (expressions: their γ, Rᵀ M)."""
     loads = scene.loads
     forces = active_forces(loads)
-    has_space = bool(np.any(loads.terms[:, 0] == SPACE) or np.any(loads.tables[:, 0] == SPACE))
-    lone_force = len(forces) == 1 and not has_space and loads.expressions is None
-    c0, T = kernel.force_map(forces[:0] if lone_force else forces)
-    lever_force = np.array(forces[0].reshape(2, 3)) if lone_force else None
-    flags = ((len(forces) > 0 and not lone_force) or has_space or loads.expressions is not None, has_space, has_nonconservative(loads))
+    lever_force = lone_force(scene)
+    c0, T = kernel.force_map(forces[:0] if lever_force is not None else forces)
+    has_space = _has_space(loads)
+    flags = ((len(forces) > 0 and lever_force is None) or has_space or loads.expressions is not None, has_space, has_nonconservative(loads))
     return c0, T, lever_force, flags
+
+
+def lone_force(scene: Scene) -> np.ndarray | None:
+    """[p, F] (2 × 3) when one constant force acts and nothing else in space (no space-frame
+    torques, no expressions): the kernel then takes its torque through γ = Rᵀ F; else None."""
+    loads = scene.loads
+    forces = active_forces(loads)
+    if len(forces) != 1 or _has_space(loads) or loads.expressions is not None:
+        return None
+    return np.array(forces[0].reshape(2, 3))
+
+
+def _has_space(loads) -> bool:
+    return bool(np.any(loads.terms[:, 0] == SPACE) or np.any(loads.tables[:, 0] == SPACE))
 
 
 METHOD = Taylor()
