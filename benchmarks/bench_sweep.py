@@ -3,8 +3,11 @@ over 10 s, method = "auto", rtol 1e-10; ω₀ drawn per case), run end to end by
 a child process, beside the parts of one case measured in this process:
 
 * solve: ``Method.solve`` of the case's scene with the settings auto chose (the integration);
+* validate: the case's scenario from the file's document and its values (``case_scenario``,
+  done by the worker that runs it);
 * simulate: ``rotlab.simulate(scenario)`` (scene, auto's choice, solve, trajectory);
-* outcome: the sweep's per-case report (checks, observables, decimated series);
+* report: the sweep's per-case report (checks, observables, decimated series), made for a
+  worker's chunk of cases at once (``outcomes_of``), per case;
 * round trip: a worker's task that does nothing, handed over and answered (IPC);
 * sweep: the whole `rotlab sweep` wall time (start-up, validation, workers, results files and
   the comparison recording included) divided by the number of cases.
@@ -63,7 +66,7 @@ def main() -> None:
     from rotlab.methods.choose import expect_runs
     from rotlab.parallel import run_tasks
     from rotlab.scene.scene import build_scene
-    from rotlab.sweep.runner import outcome_of, plan
+    from rotlab.sweep.runner import CHUNK_CASES, case_scenario, outcomes_of, plan
 
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "free_sweep.toml"
@@ -88,8 +91,10 @@ def main() -> None:
         methods = sorted({chosen.name for chosen, *_ in planned})
         solve = _median_us(lambda item: item[0].solve(item[1], item[2], item[3], None), planned)
         simulate = _median_us(lambda scenario: rotlab.simulate(scenario), p.scenarios[third:2 * third])
-        cases = list(zip(p.cases[2 * third:3 * third], p.scenarios[2 * third:3 * third]))
-        outcome = _median_us(lambda pair: outcome_of(pair[0], rotlab.simulate(pair[1]), 0.0), cases) - simulate
+        validate = _median_us(lambda case: case_scenario(p.raw, p.base, case, p.source), p.cases[:third])
+        runs = [(case, rotlab.simulate(scenario), 0.0) for case, scenario in zip(p.cases[2 * third:3 * third], p.scenarios[2 * third:3 * third])]
+        chunks = [runs[k:k + CHUNK_CASES] for k in range(0, len(runs), CHUNK_CASES)]
+        report = _median_us(outcomes_of, chunks) / CHUNK_CASES
         stamps: list[float] = []
         begun = time.perf_counter()
         run_tasks(operator.pos, [(1,)] * 2000, 1, preload=(), on_end=lambda end: stamps.append(time.perf_counter() - begun))
@@ -98,8 +103,9 @@ def main() -> None:
 
     print(f"== a sweep of {args.cases:,} free-body cases (201 samples, auto at rtol 1e-10: {', '.join(methods)}), µs per case")
     print(f"   {'part':44s} {'µs':>8s}   {'× solve':>8s}")
-    rows = [("solve (Method.solve, the integration)", solve), ("simulate (scene, choice, solve, trajectory)", simulate),
-            ("outcome (checks, observables, series)", outcome), ("round trip of an empty task (1 worker)", round_trip)]
+    rows = [("solve (Method.solve, the integration)", solve), ("validate (the case's scenario, in its worker)", validate),
+            ("simulate (scene, choice, solve, trajectory)", simulate),
+            (f"report (checks, observables, series; {CHUNK_CASES} together)", report), ("round trip of an empty task (1 worker)", round_trip)]
     rows += [(f"rotlab sweep -j {jobs}, wall / cases", us) for jobs, us in sweep.items()]
     for name, us in rows:
         print(f"   {name:44s} {us:8.0f}   {us / solve:8.1f}")

@@ -29,6 +29,7 @@ DEFAULT_RTOL_FACTOR = 100.0
 ROUNDOFF_FACTOR = 10.0
 EXACT_BOUND = 1e-12
 EPS = float(np.finfo(float).eps)
+MIN_REVERSALS = 3  # sign changes needed to measure a flip period
 
 SCENARIO, DEFAULT = "[checks]", "default"
 
@@ -63,22 +64,32 @@ def has_checks(traj: Trajectory) -> bool:
 def evaluate_checks(traj: Trajectory, defaults: bool = False) -> list[CheckResult]:
     """The scenario's checks; with ``defaults``, a scenario without ``[checks]`` gets a drift
     bound on every invariant of its scene (module docstring).  A stopped run always fails."""
-    checks = traj.scene.scenario.checks
-    drift = traj.max_drift()
+    spec = traj.scene.scenario.checks.flip_period
+    flip = None if spec is None else flip_period(traj.t, traj.omega[:, AXES[spec.axis]])
+    default = default_bound(traj) if defaults and not has_checks(traj) else None
+    return checks_of(traj.scene, traj.max_drift(), flip, traj.stats.failure, default)
+
+
+def checks_of(scene, drift: dict[str, float], flip: tuple[float, int] | None, failure: str | None,
+              default: tuple[float, str] | None = None) -> list[CheckResult]:
+    """The checks of a run of ``scene`` from what was measured: the max drift of each invariant,
+    the flip period and reversals of the ``[checks] flip_period`` axis (``flip_period``), the
+    run's failure; ``default``: (bound, basis) held by every invariant (``default_bound``)."""
+    checks = scene.scenario.checks
     results = []
-    if defaults and not has_checks(traj):
-        bound, basis = default_bound(traj)
+    if default is not None:
+        bound, basis = default
         results += [_drift_check(name, value, bound, DEFAULT, basis) for name, value in drift.items()]
     for name, bound in checks.max_drift.items():
         if name not in drift:
             results.append(CheckResult(f"max_drift.{name}", False, None, f"≤ {bound:g}",
-                                       f"{name} is not an invariant of this {traj.scene.kind} scene (it has {', '.join(drift)})", bound))
+                                       f"{name} is not an invariant of this {scene.kind} scene (it has {', '.join(drift)})", bound))
             continue
         results.append(_drift_check(name, drift[name], bound, SCENARIO, ""))
     if checks.flip_period is not None:
-        results.append(_flip_period(traj, checks.flip_period))
-    if traj.stats.failure:
-        results.append(CheckResult("run", False, None, "completes", traj.stats.failure))
+        results.append(_flip_check(checks.flip_period, *flip))
+    if failure:
+        results.append(CheckResult("run", False, None, "completes", failure))
     return results
 
 
@@ -109,13 +120,33 @@ def flip_times(t: np.ndarray, component: np.ndarray) -> np.ndarray:
     return t[k] - component[k] * (t[k + 1] - t[k]) / (component[k + 1] - component[k])
 
 
-def _flip_period(traj: Trajectory, spec) -> CheckResult:
-    crossings = flip_times(traj.t, traj.omega[:, AXES[spec.axis]])
+def flip_period(t: np.ndarray, component: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(period, reversals) of the sign changes of ``component`` (..., N) along its last axis, at
+    times ``t`` (N,): twice their mean spacing, (last − first)/(reversals − 1), the crossings placed
+    as in ``flip_times``; NaN with fewer than ``MIN_REVERSALS``.  One run or B stacked: (B,) each."""
+    c = np.asarray(component, dtype=float)
+    if c.shape[-1] < 2:
+        return np.full(c.shape[:-1], math.nan)[()], np.zeros(c.shape[:-1], dtype=np.int64)[()]
+    s = np.sign(c)
+    changes = s[..., :-1] * s[..., 1:] < 0
+    reversals = np.count_nonzero(changes, axis=-1)
+    first = np.argmax(changes, axis=-1)[..., None]
+    last = changes.shape[-1] - 1 - np.argmax(changes[..., ::-1], axis=-1)[..., None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        def crossing(k: np.ndarray) -> np.ndarray:
+            ck, cn = np.take_along_axis(c, k, -1), np.take_along_axis(c, k + 1, -1)
+            return (t[k] - ck * (t[k + 1] - t[k]) / (cn - ck))[..., 0]
+
+        period = 2.0 * (crossing(last) - crossing(first)) / np.maximum(reversals - 1, 1)
+    return np.where(reversals >= MIN_REVERSALS, period, math.nan)[()], reversals[()]
+
+
+def _flip_check(spec, period: float, reversals: int) -> CheckResult:
     limit = f"{spec.expected:g} s ± {100 * spec.rtol:g}%"
-    if crossings.size < 3:
+    if reversals < MIN_REVERSALS:
         return CheckResult("flip_period", False, None, limit,
-                           f"ω_{spec.axis} reversed {crossings.size} times: need ≥ 3 to measure a period (lengthen time.end)",
+                           f"ω_{spec.axis} reversed {reversals} times: need ≥ {MIN_REVERSALS} to measure a period (lengthen time.end)",
                            spec.expected)
-    period = 2.0 * float(np.mean(np.diff(crossings)))
+    period = float(period)
     ok = abs(period - spec.expected) <= spec.rtol * spec.expected
     return CheckResult("flip_period", ok, period, limit, f"flip period {period:.6g} s {'within' if ok else 'outside'} {limit}", spec.expected)

@@ -24,17 +24,18 @@ import numpy as np
 @dataclass(frozen=True)
 class Series:
     """What a drift is computed from (principal frame, valid samples only), and the values at the
-    run's first sample it is measured from (a streamed run's chunks all share them)."""
+    run's first sample it is measured from (a streamed run's chunks all share them).  Shapes are
+    those of one run; B runs stacked add a leading axis to every array ((B, N, 3), (B, 1), …)."""
 
     q: np.ndarray  # (N, 4) Λ as integrated
     L_body: np.ndarray  # (N, 3)
     L_space: np.ndarray  # (N, 3)
     energy: np.ndarray  # (N,) H = T + V − W
-    energy0: float  # H₀
-    L_body0: np.ndarray  # (3,)
-    L_space0: np.ndarray  # (3,)
-    energy_scale: float
-    L_scale: float  # |L₀|
+    energy0: np.ndarray  # H₀, (1,)
+    L_body0: np.ndarray  # (1, 3)
+    L_space0: np.ndarray  # (1, 3)
+    energy_scale: np.ndarray  # (1,)
+    L_scale: np.ndarray  # |L₀|, (1,)
     field_direction: np.ndarray | None
     symmetry_axis: np.ndarray | None
 
@@ -48,23 +49,24 @@ class Invariant:
     full_rate: bool = True  # a recording keeps it at every sample (else at the visual series' rate)
 
 
-def _relative(x: np.ndarray, scale: float) -> np.ndarray:
-    return x / scale if scale > 0.0 else x
+def _relative(x: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """x / scale, or x itself where the scale is zero (a body at rest)."""
+    return np.divide(x, scale, out=x.copy(), where=scale > 0.0)
 
 
 TABLE: tuple[Invariant, ...] = (
     Invariant("energy", "T+V−W", lambda scene: True,
               lambda s: _relative(s.energy - s.energy0, s.energy_scale)),
     Invariant("quaternion_norm", "|Λ|−1", lambda scene: True,
-              lambda s: np.linalg.norm(s.q, axis=1) - 1.0, full_rate=False),  # a function of Λ alone, which is kept
+              lambda s: np.linalg.norm(s.q, axis=-1) - 1.0, full_rate=False),  # a function of Λ alone, which is kept
     Invariant("L_norm", "|L|", lambda scene: scene.kind == "torque_free",
-              lambda s: _relative(np.linalg.norm(s.L_body, axis=1) - s.L_scale, s.L_scale)),
+              lambda s: _relative(np.linalg.norm(s.L_body, axis=-1) - s.L_scale, s.L_scale)),
     Invariant("L_space", "L space", lambda scene: scene.kind == "torque_free",
-              lambda s: _relative(np.linalg.norm(s.L_space - s.L_space0, axis=1), s.L_scale)),
+              lambda s: _relative(np.linalg.norm(s.L_space - s.L_space0, axis=-1), s.L_scale)),
     Invariant("L_vertical", "L·up", lambda scene: scene.field_direction is not None,
-              lambda s: _relative(np.einsum("ij,j->i", s.L_space - s.L_space0, s.field_direction), s.L_scale)),
+              lambda s: _relative(np.einsum("...j,j->...", s.L_space - s.L_space0, s.field_direction), s.L_scale)),
     Invariant("L_symmetry", "L·e", lambda scene: scene.symmetry_axis is not None,
-              lambda s: _relative(np.einsum("ij,j->i", s.L_body - s.L_body0, s.symmetry_axis), s.L_scale)),
+              lambda s: _relative(np.einsum("...j,j->...", s.L_body - s.L_body0, s.symmetry_axis), s.L_scale)),
 )
 
 NAMES: tuple[str, ...] = tuple(row.name for row in TABLE)
@@ -82,7 +84,7 @@ def names_for(scene: Any) -> tuple[str, ...]:
 
 def drifts(names: tuple[str, ...], series: Series) -> dict[str, np.ndarray]:
     """Relative drift of each named invariant along ``series`` (empty arrays for no samples)."""
-    if not len(series.q):
-        return {name: np.zeros(0) for name in names}
+    if not series.q.shape[-2]:
+        return {name: np.zeros(series.q.shape[:-1]) for name in names}
     rows = {row.name: row for row in TABLE}
     return {name: rows[name].drift(series) for name in names}

@@ -215,6 +215,41 @@ def _per_series(parts: list[Trajectory], combine: Callable[[list[np.ndarray]], n
                       first._reference, first._euler, series=series)
 
 
+@dataclass(frozen=True)
+class Runs:
+    """B runs of one scene over the same sample times, stacked (a sweep's report of many cases at
+    once, ``stack_runs``): the series it needs, computed by the same functions as one
+    ``Trajectory``'s, with a leading axis of runs."""
+
+    scene: Scene
+    t: np.ndarray  # (N,) s
+    unit_q: np.ndarray  # (B, N, 4) unit Λ_P, principal body → space
+    omega: np.ndarray  # (B, N, 3) rad/s, user's body frame
+    L_body0: np.ndarray  # (B, 3) kg·m²/s, L(t0), user's body frame
+    L_space0: np.ndarray  # (B, 3) kg·m²/s, L(t0), space frame
+    drifts: dict[str, np.ndarray]  # invariant → (B, N) relative drift
+
+    def max_drift(self) -> dict[str, np.ndarray]:
+        """max |drift| over each run, per invariant: (B,) each (0 for runs without samples)."""
+        return {name: np.max(np.abs(v), axis=-1) if v.shape[-1] else np.zeros(v.shape[0]) for name, v in self.drifts.items()}
+
+
+def stack_runs(trajectories: list[Trajectory]) -> Runs:
+    """The runs ``trajectories`` stacked: all of one scene's body and loads, with the same sample times."""
+    first = trajectories[0]
+    scene, t = first.scene, first.t
+    state = np.stack([traj._state for traj in trajectories])
+    quantities = _quantities(scene, state)
+    unit_q, L_p, L_space = quantities[:3]
+    started = t.shape[0] > 0
+    drifts = _drifts(scene, state[..., 0:4], L_p, L_space, quantities[6], _reference(quantities) if started else None)
+    L_body0, L_space0 = (L_p[:, 0], L_space[:, 0]) if started else (np.zeros((len(trajectories), 3)),) * 2
+    omega = state[..., 4:7]  # (a stacked copy: no trajectory's state is shared)
+    if not scene.is_principal:
+        omega, L_body0 = _rows_times(omega, scene.axes.T), _rows_times(L_body0, scene.axes.T)
+    return Runs(scene, t, unit_q, omega, L_body0, L_space0, drifts)
+
+
 @dataclass
 class RunSummary:
     """What reports say about a run without holding its samples (a streamed run has none)."""
@@ -232,13 +267,15 @@ class RunSummary:
 
 @dataclass(frozen=True)
 class Reference:
-    """The values at the run's first sample that the drifts are measured from (principal frame)."""
+    """The values at the run's first sample that the drifts are measured from (principal frame),
+    shaped to broadcast against the run's samples: (1, 3) vectors and (1,) scalars for one run,
+    (B, 1, 3) and (B, 1) for B stacked runs (``stacked_drifts``)."""
 
     L_p: np.ndarray  # body L₀
     L_space: np.ndarray  # space L₀
-    L_norm: float  # |L₀|
-    invariant_energy: float  # H₀ = T₀ + V₀ − W₀
-    energy_scale: float  # max(|H₀|, T₀ + |V₀|)
+    L_norm: np.ndarray  # |L₀|
+    invariant_energy: np.ndarray  # H₀ = T₀ + V₀ − W₀
+    energy_scale: np.ndarray  # max(|H₀|, T₀ + |V₀|)
 
 
 def build_trajectory(scene: Scene, solution: Solution, stats: RunStats, euler_angles: bool = False) -> Trajectory:
@@ -262,22 +299,24 @@ def reference_of(scene: Scene, state0: np.ndarray) -> Reference:
 
 
 def _reference(quantities) -> Reference:
-    """The ``Reference`` from the first row of ``_quantities`` (row-wise operations: the same
-    numbers whether computed for that row alone or for a chunk that starts with it)."""
+    """The ``Reference`` from the first sample of ``_quantities`` (of one run, or of each of
+    stacked runs; row-wise operations: the same numbers whether computed for that row alone or
+    for a chunk that starts with it)."""
     unit_q, L_p, L_space, kinetic, potential, _, invariant_energy = quantities
-    v0 = abs(float(potential[0])) if potential is not None else 0.0
-    h0 = float(invariant_energy[0])
-    return Reference(L_p[0].copy(), L_space[0].copy(), float(np.linalg.norm(L_p[0])), h0, max(abs(h0), float(kinetic[0]) + v0))
+    v0 = np.abs(potential[..., :1]) if potential is not None else 0.0
+    h0 = invariant_energy[..., :1].copy()
+    return Reference(L_p[..., :1, :].copy(), L_space[..., :1, :].copy(), np.linalg.norm(L_p[..., :1, :], axis=-1), h0,
+                     np.maximum(np.abs(h0), kinetic[..., :1] + v0))
 
 
 @_near_blow_up
 def _quantities(scene: Scene, state: np.ndarray):
     """(unit Λ_P, L_P, L_space, T, V (None without a field), T + V, T + V − W) of principal-frame rows."""
-    q_p, w_p, work = state[:, 0:4], state[:, 4:7], state[:, 7]
-    unit_q = q_p / np.linalg.norm(q_p, axis=1, keepdims=True)
+    q_p, w_p, work = state[..., 0:4], state[..., 4:7], state[..., 7]
+    unit_q = q_p / np.linalg.norm(q_p, axis=-1, keepdims=True)
     L_p = w_p * scene.moments
     L_space = quat.rotate_to_space_array(unit_q, L_p)
-    kinetic = 0.5 * np.sum(w_p * L_p, axis=1)
+    kinetic = 0.5 * np.sum(w_p * L_p, axis=-1)
     potential = _potential(scene, unit_q) if scene.has_potential else None
     total = kinetic if potential is None else kinetic + potential
     return unit_q, L_p, L_space, kinetic, potential, total, total - work
@@ -296,23 +335,23 @@ def _continuous_euler_angles(q: np.ndarray, previous: np.ndarray | None = None) 
 
 
 def _potential(scene: Scene, unit_q: np.ndarray) -> np.ndarray:
-    v = np.zeros(unit_q.shape[0])
+    v = np.zeros(unit_q.shape[:-1])
     for row in scene.loads.forces:
-        v -= _rows_times(quat.rotate_to_space_array(unit_q, np.broadcast_to(row[:3], (unit_q.shape[0], 3))), row[3:])
+        v -= _rows_times(quat.rotate_to_space_array(unit_q, np.broadcast_to(row[:3], unit_q.shape[:-1] + (3,))), row[3:])
     return v
 
 
 def _rows_times(rows: np.ndarray, matrix: np.ndarray) -> np.ndarray:
-    """``rows @ matrix`` for (N, 3) rows and a 3×3 matrix or 3-vector, without BLAS: its threads
+    """``rows @ matrix`` for (..., 3) rows and a 3×3 matrix or 3-vector, without BLAS: its threads
     busy-wait against the recording's encoder thread (measured 25× slower on a loaded 2-core machine)."""
-    return np.einsum("ij,j...->i...", rows, matrix)
+    return np.einsum("...j,jk->...k" if matrix.ndim == 2 else "...j,j->...", rows, matrix)
 
 
 @_near_blow_up
 def _drifts(scene: Scene, q_p, L_p, L_space, invariant_energy, reference: Reference | None) -> dict[str, np.ndarray]:
     """Relative drift of each of the scene's invariants (``rotlab.invariants``) from ``reference``."""
-    if not len(q_p) or reference is None:
-        return {name: np.zeros(0) for name in scene.invariants}
+    if not q_p.shape[-2] or reference is None:
+        return {name: np.zeros(q_p.shape[:-1]) for name in scene.invariants}
     series = invariants.Series(q_p, L_p, L_space, invariant_energy, reference.invariant_energy, reference.L_p, reference.L_space,
                                reference.energy_scale, reference.L_norm, scene.field_direction, scene.symmetry_axis)
     return invariants.drifts(scene.invariants, series)

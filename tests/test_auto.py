@@ -7,6 +7,8 @@ timed (the timings are in docs/benchmarks.md).
 
 from __future__ import annotations
 
+import dataclasses
+
 import subprocess
 import sys
 
@@ -191,7 +193,7 @@ def test_sweep_workers_are_told_their_share_of_the_cases(monkeypatch):
     from rotlab.sweep import runner
 
     p = runner.plan(CONFIGS / "sweep_flip.toml")
-    p = runner.SweepPlan(p.base.model_copy(update={"solver": p.base.solver.model_copy(update={"method": "auto"})}), p.cases, p.scenarios)
+    p = dataclasses.replace(p, base=p.base.model_copy(update={"solver": p.base.solver.model_copy(update={"method": "auto"})}))
     seen = {}
 
     def record(fn, tasks, jobs, **kw):
@@ -200,11 +202,11 @@ def test_sweep_workers_are_told_their_share_of_the_cases(monkeypatch):
 
     monkeypatch.setattr(runner, "run_tasks", record)
     runner.run_cases(p, jobs=2)
-    assert {task[2] for task in seen["tasks"]} == {-(-len(p.cases) // 2)}  # 12 cases on 2 workers: 6 each
+    assert {task[4] for task in seen["tasks"]} == {-(-len(p.cases) // 2)}  # 12 cases on 2 workers: 6 each
     runner.run_cases(p, jobs=2, timeout=0.3)
     # not with a per-case --timeout: every new worker's first case would load the kernel, run out of
     # time, and its replacement likewise (found by review: 184 of 184 cases timed out)
-    assert {task[2] for task in seen["tasks"]} == {0}
+    assert {task[4] for task in seen["tasks"]} == {0}
 
 
 def test_taylor_loaded_for_gravity_alone_is_not_ready_for_gravity_with_a_space_torque(tmp_path):

@@ -132,23 +132,43 @@ def test_the_projection_of_a_rotated_vector_equals_rotating_it():
         assert np.max(np.abs(projection_array(q, w, v) - rotated)) <= bound
 
 
+def test_the_projection_of_stacked_runs_is_each_runs_projection():
+    """``projection_array`` of B runs stacked ((B, N, 4) rows, one w and v per run) equals each
+    run's own projection to the last bit: the same products, the same order of the sums."""
+    from rotlab.core.quaternion import projection_array
+
+    rng = np.random.default_rng(12)
+    q = rng.normal(size=(3, 50, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    w, v = rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
+    stacked = projection_array(q, w, v)
+    for b in range(3):
+        assert np.array_equal(stacked[b], projection_array(q[b], w[b], v[b]))
+
+
 def test_the_sweeps_nutation_is_the_angle_of_the_users_body_axis_in_space():
-    """``nutation`` works in the principal frame (R(Λ_user) e = R(Λ_P) Pᵀ e); on a body whose
-    principal axes are not the user's (general.toml) it equals the angle between the user's axis
-    rotated by the user's Λ and the reference direction, within 1e-7 rad (arccos near 0 or π
-    amplifies rounding of the cosine to ~√ε)."""
+    """``nutation`` works in the principal frame (R(Λ_user) e = R(Λ_P) Pᵀ e), on runs stacked; on
+    a body whose principal axes are not the user's (general.toml), two runs from different ω₀,
+    each run's ϑ equals the angle between the user's axis rotated by the user's Λ and that run's
+    reference direction, within 1e-7 rad (arccos near 0 or π amplifies rounding of the cosine to ~√ε)."""
     import rotlab
     from rotlab.core.quaternion import rotate_to_space_array
     from rotlab.sweep.observables import nutation, reference_axes
+    from rotlab.trajectory import stack_runs
     from tests.conftest import CONFIGS
 
-    traj = rotlab.simulate(CONFIGS / "general.toml", duration=1.0)
-    assert not traj.scene.is_principal
-    e, d = reference_axes(traj)
-    q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
-    direct = np.arccos(np.clip(rotate_to_space_array(q, np.broadcast_to(e, (len(q), 3))) @ d, -1.0, 1.0))
-    np.testing.assert_allclose(nutation(traj), direct, rtol=0.0, atol=1e-7)
-    assert np.ptp(direct) > 0.01  # the axis moves: the comparison is not of constants
+    trajectories = [rotlab.simulate(CONFIGS / "general.toml", duration=1.0, overrides={"initial.omega": omega})
+                    for omega in ([0.3, 2.0, 9.0], [6.0, -1.0, 0.5])]
+    assert not trajectories[0].scene.is_principal
+    runs = stack_runs(trajectories)
+    e, d = reference_axes(runs)
+    theta = nutation(runs)
+    assert not np.allclose(e[0], e[1]) or not np.allclose(d[0], d[1])  # two different reference pairs
+    for b, traj in enumerate(trajectories):
+        q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
+        direct = np.arccos(np.clip(rotate_to_space_array(q, np.broadcast_to(e[b], (len(q), 3))) @ d[b], -1.0, 1.0))
+        np.testing.assert_allclose(theta[b], direct, rtol=0.0, atol=1e-7)
+        assert np.ptp(direct) > 0.01  # the axis moves: the comparison is not of constants
 
 
 def test_the_kernels_bisection_is_numpys_searchsorted_right():

@@ -168,3 +168,71 @@ def test_config_without_sweep_points_to_an_existing_readme_section(write):
         text = readme.read_text(encoding="utf-8")
         assert "## Scenario files" in text and "| `[sweep]` |" in text
     assert "'Scenario files'" in str(info.value)
+
+
+CHUNKED = VALID_BODY + """
+[initial]
+omega = [0.1, 2.0, 0.1]
+[time]
+end = 2.0
+sample_rate = 20
+[solver]
+method = "taylor"
+[checks]
+max_drift = { energy = 1e-8 }
+[sweep]
+seed = 4
+samples = 10
+[sweep.parameters]
+"body.principal_moments[0]" = [1.5, 2.0]
+"initial.omega[2]" = { uniform = [-0.2, 0.2] }
+"""
+
+
+def test_cases_reported_together_equal_each_case_reported_alone(write):
+    """A worker's chunk of cases is reported with its runs stacked (one array per body and loads:
+    here two bodies, and spins of 2 and 2000 rad/s: the fast ones stop on their step budget after
+    6 of the 41 samples and are stacked apart from the rest): every case's ω series, drifts,
+    observables and checks equal those of the case run and reported alone, to the last bit."""
+    from rotlab.sweep.runner import run_sweep_cases
+
+    text = CHUNKED.replace('"initial.omega[2]"', '"initial.omega[1]" = [2.0, 2000.0]\n"initial.omega[2]"')
+    text = text.replace('method = "taylor"', 'method = "taylor"\nmax_steps = 400')
+    p = plan(write("s.toml", text))
+    together = run_sweep_cases(p.cases, p.scenarios)
+    assert [o.index for o in together] == list(range(40))
+    assert {(o.status, len(o.t)) for o in together} == {("pass", 41), ("fail", 6)}
+    for case, scenario, outcome in zip(p.cases, p.scenarios, together):
+        alone = run_sweep_case(case, scenario)
+        np.testing.assert_array_equal(outcome.omega, alone.omega)
+        np.testing.assert_array_equal(outcome.energy_drift, alone.energy_drift)
+        assert (outcome.status, outcome.drift, outcome.checks, outcome.message) == (alone.status, alone.drift, alone.checks, alone.message)
+        np.testing.assert_array_equal(list(outcome.observables.values()), list(alone.observables.values()))
+
+
+def test_a_chunk_whose_worker_died_runs_again_case_by_case(write, monkeypatch):
+    """Local workers take cases in chunks; when a chunk's worker dies, its cases run again one per
+    task: the case that killed it (here: every task holding case 7 dies) is the only error."""
+    from rotlab import parallel
+    from rotlab.sweep import runner
+
+    p = plan(write("s.toml", CHUNKED))
+    tasks_seen: list[int] = []
+
+    def pool(fn, tasks, jobs, **kw):
+        ends = []
+        for k, task in enumerate(tasks):
+            tasks_seen.append(len(task[3]))
+            if any(case.index == 7 for case in task[3]):
+                ends.append(parallel.TaskEnd(k, None, "worker died (killed by SIGKILL)"))
+            else:
+                ends.append(parallel.TaskEnd(k, fn(*task)))
+        return parallel.TaskRun(ends)
+
+    monkeypatch.setattr(runner, "run_tasks", pool)
+    run = runner.run_cases(p, jobs=1)
+    size = runner.chunk_size(20, 1)
+    assert size > 1 and tasks_seen == [size] * (20 // size) + [1] * size
+    assert [o.status for o in run.outcomes] == ["pass"] * 7 + ["error"] + ["pass"] * 12
+    assert run.outcomes[7].message == "worker died (killed by SIGKILL)"
+    assert f"{size} cases a task" in run.how

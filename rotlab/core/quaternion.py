@@ -90,16 +90,17 @@ def rotate_to_space_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def projection_array(q: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """(R(Λ) w)·v for unit quaternion rows q (N, 4) and fixed 3-vectors w, v:
+    """(R(Λ) w)·v for unit quaternion rows q (..., N, 4) and 3-vectors w, v (..., 3), fixed along
+    each run of rows (one run: q (N, 4), w and v (3,); B runs stacked: (B, N, 4) and (B, 3)):
 
         (R w)·v = (2 q0² − 1)(w·v) + 2 (q·w)(q·v) + 2 q0 q·(w × v)     (q the vector part, |Λ| = 1),
 
-    one (N, 3)·(3, 3) product instead of rotating N vectors."""
-    (w1, w2, w3), (v1, v2, v3) = np.asarray(w, dtype=float).tolist(), np.asarray(v, dtype=float).tolist()
-    columns = np.array([[w1, v1, w2 * v3 - w3 * v2], [w2, v2, w3 * v1 - w1 * v3], [w3, v3, w1 * v2 - w2 * v1]])
-    p = np.einsum("ij,jk->ik", q[:, 1:], columns)
-    q0 = q[:, 0]
-    return (2.0 * q0 * q0 - 1.0) * (w1 * v1 + w2 * v2 + w3 * v3) + 2.0 * (p[:, 0] * p[:, 1] + q0 * p[:, 2])
+    one (N, 3)·(3, 3) product per run instead of rotating N vectors."""
+    w, v = np.asarray(w, dtype=float), np.asarray(v, dtype=float)
+    columns = np.stack([w, v, cross_array(w, v)], axis=-1)  # (..., 3, 3): columns w, v, w × v
+    p = np.einsum("...nj,...jk->...nk", q[..., 1:], columns)
+    q0 = q[..., 0]
+    return (2.0 * q0 * q0 - 1.0) * np.sum(w * v, axis=-1)[..., None] + 2.0 * (p[..., 0] * p[..., 1] + q0 * p[..., 2])
 
 
 def rotate_to_body_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -43,13 +43,21 @@ class Geometry:
 def reference_body_axis(scene, L0_body: np.ndarray) -> tuple[np.ndarray, str]:
     """(unit axis in the user's body frame, name): the symmetry axis of a Lagrange top; else the
     principal axis nearest L(t0), pointing along it (body z when L(t0) = 0)."""
+    axis = reference_body_axes(scene, L0_body[None, :])[0]
     if scene.symmetry_axis is not None:
-        return scene.axes @ scene.symmetry_axis, "symmetry axis tip"
-    principal = scene.axes.T  # rows: principal axes in the user's body frame
-    if not np.any(L0_body):
-        return np.array([0.0, 0.0, 1.0]), "body z tip"
-    k = int(np.argmax(np.abs(principal @ L0_body)))
-    return principal[k] * (1.0 if principal[k] @ L0_body >= 0.0 else -1.0), "spin axis tip"
+        return axis, "symmetry axis tip"
+    return axis, "spin axis tip" if np.any(L0_body) else "body z tip"
+
+
+def reference_body_axes(scene, L0_body: np.ndarray) -> np.ndarray:
+    """``reference_body_axis`` of each row of ``L0_body`` (B, 3): (B, 3) unit axes."""
+    if scene.symmetry_axis is not None:
+        return np.broadcast_to(scene.axes @ scene.symmetry_axis, L0_body.shape)
+    along = np.einsum("bj,jk->bk", L0_body, scene.axes)  # L(t0) along each principal axis
+    k = np.argmax(np.abs(along), axis=-1)
+    sign = np.where(np.take_along_axis(along, k[:, None], -1) >= 0.0, 1.0, -1.0)
+    nearest = scene.axes.T[k] * sign
+    return np.where(np.any(L0_body, axis=-1)[:, None], nearest, np.array([0.0, 0.0, 1.0]))
 
 
 def scene_geometry(traj: Trajectory, unit_q: np.ndarray, omega_space: np.ndarray, omega_scale: float, reach: float) -> Geometry:

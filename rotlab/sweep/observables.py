@@ -1,9 +1,10 @@
-"""Per-case observables of a sweep, from the case's trajectory (user's frames).
+"""Per-case observables of a sweep (user's frames), computed for B runs of one scene at once
+(``rotlab.trajectory.Runs``); each is a (B,) array, NaN where not defined.
 
 flip_period_s
     Where the spin component reverses (the intermediate-axis flip): twice the mean time between
     sign changes of ω_a, a = the ``[checks] flip_period`` axis if given, else the body axis with
-    the largest |ω(t0)| component.  Empty (NaN) with fewer than 3 reversals.
+    the largest |ω(t0)| component (``flip_axes``).  NaN with fewer than 3 reversals.
 max_nutation_deg
     max over the run of the angle between the reference body axis e (symmetry axis of a
     Lagrange top; else the principal axis nearest L(t0), signed along it) and the reference space
@@ -13,57 +14,54 @@ max_nutation_deg
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from rotlab.checks import AXES, flip_times
+from rotlab.checks import AXES, flip_period
 from rotlab.core import quaternion as quat
-from rotlab.recording.geometry import reference_body_axis
-from rotlab.trajectory import Trajectory
+from rotlab.recording.geometry import reference_body_axes
+from rotlab.trajectory import Runs
 
-MIN_REVERSALS = 3
-
-
-def flip_period(traj: Trajectory) -> float:
-    """2 · mean spacing of ω_a's sign changes (s); NaN with fewer than 3 reversals."""
-    if not len(traj.t):
-        return math.nan
-    spec = traj.scene.scenario.checks.flip_period
-    axis = AXES[spec.axis] if spec is not None else int(np.argmax(np.abs(traj.omega[0])))
-    crossings = flip_times(traj.t, traj.omega[:, axis])
-    if crossings.size < MIN_REVERSALS:
-        return math.nan
-    return 2.0 * float(np.mean(np.diff(crossings)))
+NOT_GIVEN = -1  # in ``flip_axes``: no [checks] flip_period axis, take the largest |ω(t0)| component
 
 
-def reference_axes(traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
-    """(e, d): the reference body axis (user's body frame) and space direction, both unit."""
-    scene = traj.scene
-    L0_space = traj.L_space[0]
-    e, _ = reference_body_axis(scene, traj.L_body[0])
+def flip_axes(runs: Runs, given: list[str | None]) -> np.ndarray:
+    """(B,) the body axis whose ω component each run's flip period is measured on: the ``given``
+    axis name ("x", "y", "z") or, where None, the largest |ω(t0)| component."""
+    chosen = np.array([NOT_GIVEN if axis is None else AXES[axis] for axis in given], dtype=np.int64)
+    if runs.t.shape[0]:
+        chosen = np.where(chosen == NOT_GIVEN, np.argmax(np.abs(runs.omega[:, 0]), axis=-1), chosen)
+    return chosen
+
+
+def flips(runs: Runs, axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(period, reversals) of ω along ``axes`` (``flip_axes``) in each run (``checks.flip_period``)."""
+    component = np.take_along_axis(runs.omega, np.maximum(axes, 0)[:, None, None], -1)[..., 0]
+    return flip_period(runs.t, component)
+
+
+def reference_axes(runs: Runs) -> tuple[np.ndarray, np.ndarray]:
+    """(e, d) of each run, (B, 3) each: the reference body axis (user's body frame) and space
+    direction, both unit."""
+    scene = runs.scene
+    e = reference_body_axes(scene, runs.L_body0)
     if scene.field_direction is not None:
-        d = scene.field_direction
-    elif np.linalg.norm(L0_space) > 0.0:
-        d = L0_space / np.linalg.norm(L0_space)
+        d = np.broadcast_to(scene.field_direction, e.shape)
     else:
-        d = np.array([0.0, 0.0, 1.0])
-    return e / np.linalg.norm(e), d
+        norm = np.linalg.norm(runs.L_space0, axis=-1, keepdims=True)
+        d = np.where(norm > 0.0, runs.L_space0 / np.where(norm > 0.0, norm, 1.0), np.array([0.0, 0.0, 1.0]))
+    return e / np.linalg.norm(e, axis=-1, keepdims=True), d
 
 
-def nutation(traj: Trajectory) -> np.ndarray:
-    """ϑ(t) in radians (see module docstring)."""
-    if not len(traj.t):
-        return np.zeros(0)
-    e, d = reference_axes(traj)
-    unit_q_principal = traj._quantities[0]  # R(Λ_user) e = R(Λ_P) Pᵀ e
-    return np.arccos(np.clip(quat.projection_array(unit_q_principal, traj.scene.axes.T @ e, d), -1.0, 1.0))
+def nutation(runs: Runs) -> np.ndarray:
+    """ϑ(t) in radians, (B, N) (module docstring)."""
+    e, d = reference_axes(runs)
+    principal_e = np.einsum("bj,jk->bk", e, runs.scene.axes)  # R(Λ_user) e = R(Λ_P) Pᵀ e
+    return np.arccos(np.clip(quat.projection_array(runs.unit_q, principal_e, d), -1.0, 1.0))
 
 
-def case_observables(traj: Trajectory) -> dict[str, float]:
-    """The observables of one case (NaN where not defined)."""
-    theta = nutation(traj)
-    return {
-        "flip_period_s": flip_period(traj),
-        "max_nutation_deg": float(np.degrees(np.max(theta))) if theta.size else math.nan,
-    }
+def observables(runs: Runs, flip_period_s: np.ndarray) -> dict[str, np.ndarray]:
+    """The observables of each run, (B,) each; ``flip_period_s`` from ``flips``."""
+    if not runs.t.shape[0]:
+        nan = np.full(runs.omega.shape[0], np.nan)
+        return {"flip_period_s": nan, "max_nutation_deg": nan}
+    return {"flip_period_s": flip_period_s, "max_nutation_deg": np.degrees(np.max(nutation(runs), axis=-1))}

@@ -8,6 +8,7 @@ import math
 import signal
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -18,8 +19,11 @@ from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError
 from rotlab.parallel import TaskRun, run_tasks
 from rotlab.sweep.cases import Case, apply, check_path, expand
+from rotlab.trajectory import Trajectory, stack_runs
 
 COMPARISON_SAMPLES = 2000  # per case, in the comparison recording
+CHUNK_CASES = 64  # at most this many cases in a local worker's task (``chunk_size``)
+CHUNKS_PER_WORKER = 8  # ... and at least this many tasks per worker, for balance and a quick stop
 
 
 @dataclass
@@ -43,70 +47,133 @@ class CaseOutcome:
 class SweepPlan:
     base: cfg.Scenario
     cases: list[Case]
-    scenarios: list[cfg.Scenario | InputError]
+    raw: dict[str, Any]  # the file's document, to which each case's values are applied
+    source: str  # the file, as error messages name it
+
+    @cached_property
+    def scenarios(self) -> list[cfg.Scenario | InputError]:
+        """Every case validated (a bad case is kept as its error).  Local workers validate their
+        own cases instead: validating takes less than pickling a validated scenario."""
+        return [case_scenario(self.raw, self.base, case, self.source) for case in self.cases]
 
 
 def plan(config: Path) -> SweepPlan:
-    """Read the config, expand its [sweep], validate every case (a bad case is kept as its error;
-    a bad first case is a bad sweep)."""
+    """Read the config, expand its [sweep] and validate the first case (a bad first case is a bad
+    sweep; the others are validated where they run)."""
     raw = read_toml(config)
     base = parse_scenario(raw, source=str(config))
     if base.sweep is None:
         raise InputError(f"{config}", "no [sweep] section: add one (README, 'Scenario files', the [sweep] row) or use `rotlab run`")
     for path in base.sweep.parameters:
         check_path(base, path)
-    cases = expand(base.sweep)
-    scenarios: list[cfg.Scenario | InputError] = []
-    for case in cases:
-        try:
-            scenarios.append(parse_scenario(apply(raw, base, case.values), source=f"{config} case {case.index}"))
-        except InputError as exc:
-            if case.index == 0:
-                raise
-            scenarios.append(exc)
-    return SweepPlan(base, cases, scenarios)
+    p = SweepPlan(base, expand(base.sweep), raw, str(config))
+    first = case_scenario(raw, base, p.cases[0], p.source)
+    if isinstance(first, InputError):
+        raise first
+    return p
 
 
-def outcome_of(case: Case, traj, seconds: float) -> CaseOutcome:
-    from rotlab.checks import evaluate_checks
-    from rotlab.sweep.observables import case_observables
-
-    checks = evaluate_checks(traj)
-    failed = [c for c in checks if not c.passed]
-    stride = max(1, math.ceil(traj.t.shape[0] / COMPARISON_SAMPLES))
-    return CaseOutcome(
-        index=case.index,
-        values=case.values,
-        status="fail" if failed else "pass",
-        method=traj.stats.method,
-        steps=traj.stats.steps,
-        seconds=seconds,
-        drift=traj.max_drift(),
-        checks=[{"name": c.name, "passed": c.passed, "value": c.value, "limit": c.limit} for c in checks],
-        message="; ".join(c.message for c in failed),
-        observables=case_observables(traj),
-        t=traj.t[::stride],
-        omega=traj.omega[::stride],
-        energy_drift=traj.invariants["energy"][::stride],
-    )
+def case_scenario(raw: dict[str, Any], base: cfg.Scenario, case: Case, source: str) -> cfg.Scenario | InputError:
+    """The scenario of ``case``: its values applied to the file's document, validated (an invalid
+    case is returned as its error)."""
+    try:
+        return parse_scenario(apply(raw, base, case.values), source=f"{source} case {case.index}")
+    except InputError as exc:
+        return exc
 
 
-def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError, expected_runs: int = 0) -> CaseOutcome:
-    """One case, never raising (importable by Dask workers).  ``expected_runs``: the cases this
-    worker process is expected to run (``auto`` shares a kernel's loading among them)."""
+def outcomes_of(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOutcome]:
+    """The report of each (case, trajectory, its wall time): checks, observables, decimated series.
+    Runs of one body and loads over the same sample times are reported together (their series
+    stacked: ``rotlab.trajectory.stack_runs``); each run's ``seconds`` gets its share of that."""
+    groups: dict[tuple, list[int]] = {}
+    for k, (_, traj, _) in enumerate(runs):
+        scene, n = traj.scene, traj.t.shape[0]
+        # scenes of equal body and loads share these objects (``rotlab.scene.scene._rigid_part``)
+        key = (id(scene.loads), id(scene.axes), n, float(traj.t[0]) if n else 0.0, float(traj.t[-1]) if n else 0.0)
+        groups.setdefault(key, []).append(k)
+    outcomes: list[CaseOutcome | None] = [None] * len(runs)
+    for members in groups.values():
+        started = time.perf_counter()
+        group = _stacked_outcomes([runs[k] for k in members])
+        share = (time.perf_counter() - started) / len(members)
+        for k, outcome in zip(members, group):
+            outcome.seconds += share
+            outcomes[k] = outcome
+    return outcomes
+
+
+def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOutcome]:
+    from rotlab.checks import checks_of
+    from rotlab.sweep.observables import flip_axes, flips, observables
+
+    stacked = stack_runs([traj for _, traj, _ in runs])
+    given = [traj.scene.scenario.checks.flip_period for _, traj, _ in runs]
+    period, reversals = flips(stacked, flip_axes(stacked, [None if spec is None else spec.axis for spec in given]))
+    found = observables(stacked, period)
+    drift = stacked.max_drift()
+    energy = stacked.drifts["energy"]
+    stride = max(1, math.ceil(stacked.t.shape[0] / COMPARISON_SAMPLES))
+    t = stacked.t[::stride]
+    outcomes = []
+    for b, (case, traj, seconds) in enumerate(runs):
+        case_drift = {name: float(values[b]) for name, values in drift.items()}
+        checks = checks_of(traj.scene, case_drift, (float(period[b]), int(reversals[b])), traj.stats.failure)
+        failed = [c for c in checks if not c.passed]
+        outcomes.append(CaseOutcome(
+            index=case.index,
+            values=case.values,
+            status="fail" if failed else "pass",
+            method=traj.stats.method,
+            steps=traj.stats.steps,
+            seconds=seconds,
+            drift=case_drift,
+            checks=[{"name": c.name, "passed": c.passed, "value": c.value, "limit": c.limit} for c in checks],
+            message="; ".join(c.message for c in failed),
+            observables={name: float(values[b]) for name, values in found.items()},
+            t=t,
+            omega=stacked.omega[b, ::stride],
+            energy_drift=energy[b, ::stride],
+        ))
+    return outcomes
+
+
+def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError], expected_runs: int = 0) -> list[CaseOutcome]:
+    """Cases one after the other, reported together (``outcomes_of``); never raises for a case:
+    an invalid one or one whose run raised is an "error" outcome.  ``expected_runs``: the cases
+    this worker process is expected to run (``auto`` shares a kernel's loading among them)."""
     from rotlab import api
     from rotlab.methods.choose import expect_runs
 
     if expected_runs:
         expect_runs(expected_runs)
-    if isinstance(scenario, InputError):
-        return CaseOutcome(case.index, case.values, "error", message=str(scenario))
-    started = time.perf_counter()
-    try:
-        traj = api.simulate(scenario, check=False)  # a failed case is reported by outcome_of
-    except Exception as exc:
-        return CaseOutcome(case.index, case.values, "error", seconds=time.perf_counter() - started, message=f"{type(exc).__name__}: {exc}")
-    return outcome_of(case, traj, time.perf_counter() - started)
+    outcomes: list[CaseOutcome | None] = [None] * len(cases)
+    runs: list[tuple[int, Case, Trajectory, float]] = []
+    for k, (case, scenario) in enumerate(zip(cases, scenarios)):
+        if isinstance(scenario, InputError):
+            outcomes[k] = CaseOutcome(case.index, case.values, "error", message=str(scenario))
+            continue
+        started = time.perf_counter()
+        try:
+            traj = api.simulate(scenario, check=False)  # a failed case is reported by its checks
+        except Exception as exc:
+            outcomes[k] = CaseOutcome(case.index, case.values, "error", seconds=time.perf_counter() - started,
+                                      message=f"{type(exc).__name__}: {exc}")
+            continue
+        runs.append((k, case, traj, time.perf_counter() - started))
+    for (k, *_), outcome in zip(runs, outcomes_of([run[1:] for run in runs])):
+        outcomes[k] = outcome
+    return outcomes
+
+
+def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError, expected_runs: int = 0) -> CaseOutcome:
+    """One case, never raising (importable by Dask workers)."""
+    return run_sweep_cases([case], [scenario], expected_runs)[0]
+
+
+def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case], expected_runs: int = 0) -> list[CaseOutcome]:
+    """A local worker's task: ``cases`` validated here (``case_scenario``) and run (``run_sweep_cases``)."""
+    return run_sweep_cases(cases, [case_scenario(raw, base, case, source) for case in cases], expected_runs)
 
 
 def ensemble_eligible(p: SweepPlan) -> bool:
@@ -142,14 +209,14 @@ def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
     rk4_ensemble(y0, t, out, substeps, s.max_steps, first.model, status, valid)
     seconds = float("nan")  # one kernel call for all bodies: no per-case wall time to report
     steps = (t.shape[0] - 1) * substeps
-    outcomes = []
+    runs = []
     for case, scene, k in zip(p.cases, scenes, range(len(scenes))):
         failure = None if status[k] == 0 else f"state became non-finite before t = {t[valid[k]]:.9g} s"
         solution = Solution(t=t, state=out[k], valid=int(valid[k]), steps=steps, failure=failure)
         stats = RunStats("rk4", "ensemble kernel: only initial conditions vary", steps, 0, 4 * steps, seconds, failure,
                          {"step": float(t[1] - t[0]) / substeps})
-        outcomes.append(outcome_of(case, build_trajectory(scene, solution, stats), seconds))
-    return outcomes
+        runs.append((case, build_trajectory(scene, solution, stats), seconds))
+    return outcomes_of(runs)
 
 
 @dataclass
@@ -165,42 +232,65 @@ def run_sweep(p: SweepPlan, jobs: int = 2, dask_address: str | None = None) -> t
     return run.outcomes, run.how
 
 
+def chunk_size(cases: int, workers: int) -> int:
+    """Cases per local task: up to ``CHUNK_CASES``, and ``CHUNKS_PER_WORKER`` tasks per worker."""
+    return max(1, min(CHUNK_CASES, cases // (workers * CHUNKS_PER_WORKER)))
+
+
 def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, timeout: float | None = None,
               retries: int = 0) -> SweepRun:
-    """Every case: the ensemble kernel when eligible, else local worker processes (a dead worker
-    or a case over ``timeout`` s costs that case only) or the Dask cluster at ``dask_address``."""
+    """Every case: the ensemble kernel when eligible, else local worker processes or the Dask
+    cluster at ``dask_address``.  Local workers take the cases in chunks (``chunk_size``),
+    validate and run them and report them together; a chunk whose worker died is run again one
+    case per task, so a case that kills its worker costs that case only.  With a per-case
+    ``timeout``, one case per task from the start (its clock is the case's)."""
     if dask_address is None and timeout is None and ensemble_eligible(p):
         started = time.perf_counter()
         outcomes = run_ensemble(p)
         return SweepRun(outcomes, f"ensemble kernel (numba parallel over bodies; {time.perf_counter() - started:.3g} s for all cases)")
-    tasks = list(zip(p.cases, p.scenarios))
     if dask_address is not None:
         from rotlab.cluster import run_on_dask
 
-        run, how = run_on_dask(run_sweep_case, tasks, dask_address, retries=retries), f"Dask cluster at {dask_address}"
-    else:
-        workers = max(1, min(jobs, len(tasks)))
-        # each worker runs about this many cases: auto shares a kernel's loading among them; not with a
-        # per-case --timeout, whose clock the first case's kernel load would run out on every new worker
-        per_worker = -(-len(tasks) // workers) if timeout is None else 0
-        run = run_tasks(run_sweep_case, [(*task, per_worker) for task in tasks], jobs, timeout=timeout, retries=retries)
-        how = f"{workers} local worker process{'es' if workers > 1 else ''}"
-    return SweepRun(collect_outcomes(p, run), how, run.stopped)
+        run = run_on_dask(run_sweep_cases, [([case], [scenario]) for case, scenario in zip(p.cases, p.scenarios)], dask_address,
+                          retries=retries)
+        outcomes, _ = collect_outcomes([[case] for case in p.cases], run)
+        return SweepRun([outcomes[case.index] for case in p.cases], f"Dask cluster at {dask_address}", run.stopped)
+    workers = max(1, min(jobs, len(p.cases)))
+    size = 1 if timeout is not None else chunk_size(len(p.cases), workers)
+    # each worker runs about this many cases: auto shares a kernel's loading among them; not with a
+    # per-case --timeout, whose clock the first case's kernel load would run out on every new worker
+    per_worker = -(-len(p.cases) // workers) if timeout is None else 0
+    chunks = [p.cases[i:i + size] for i in range(0, len(p.cases), size)]
+    run = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, per_worker) for chunk in chunks], jobs,
+                    timeout=timeout, retries=retries if size == 1 else 0)
+    outcomes, again = collect_outcomes(chunks, run)
+    stopped = run.stopped
+    if size > 1 and again and stopped is None:  # a chunk's worker died: its cases one by one
+        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], per_worker) for case in again], jobs, retries=retries)
+        outcomes.update(collect_outcomes([[case] for case in again], rerun)[0])
+        stopped = rerun.stopped
+    how = f"{workers} local worker process{'es' if workers > 1 else ''}" + (f", {size} cases a task" if size > 1 else "")
+    return SweepRun([outcomes[case.index] for case in p.cases], how, stopped)
 
 
-def collect_outcomes(p: SweepPlan, run: TaskRun) -> list[CaseOutcome]:
-    """Outcomes in case order: a task's failure (dead worker, timeout) or a case that never
-    finished (the sweep was stopped) becomes an "error" outcome that says so."""
+def collect_outcomes(chunks: list[list[Case]], run: TaskRun) -> tuple[dict[int, CaseOutcome], list[Case]]:
+    """(case index → outcome, the cases of tasks that failed): task k ran ``chunks[k]``.  A failed
+    task (dead worker, timeout) or one that never finished (the run was stopped) gives each of
+    its cases an "error" outcome that says so."""
     ended = {e.index: e for e in run.ends}
     name = signal.Signals(run.stopped).name if run.stopped else ""
-    outcomes = []
-    for i, case in enumerate(p.cases):
-        end = ended.get(i)
+    outcomes: dict[int, CaseOutcome] = {}
+    failed: list[Case] = []
+    for k, chunk in enumerate(chunks):
+        end = ended.get(k)
         if end is not None and end.failure is None:
-            outcomes.append(end.result)
-        elif end is not None:
-            outcomes.append(CaseOutcome(case.index, case.values, "error", seconds=end.seconds, message=end.failure))
+            outcomes.update((outcome.index, outcome) for outcome in end.result)
+            continue
+        if end is not None:
+            failed += chunk
+            errors = [CaseOutcome(case.index, case.values, "error", seconds=end.seconds, message=end.failure) for case in chunk]
         else:
-            state = "stopped while running" if i in run.running else "not finished"
-            outcomes.append(CaseOutcome(case.index, case.values, "error", message=f"{state} (the sweep received {name})"))
-    return outcomes
+            state = "stopped while running" if k in run.running else "not finished"
+            errors = [CaseOutcome(case.index, case.values, "error", message=f"{state} (the sweep received {name})") for case in chunk]
+        outcomes.update((outcome.index, outcome) for outcome in errors)
+    return outcomes, failed
