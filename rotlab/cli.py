@@ -272,7 +272,7 @@ def sweep(
     from rotlab.outdir import prepare_outdir
     from rotlab.parallel import exit_after_stop
     from rotlab.recording.sweep import write_comparison
-    from rotlab.sweep.report import terminal_table, write_results
+    from rotlab.sweep.report import rows, terminal_table, write_results
     from rotlab.sweep.runner import plan, run_cases
 
     try:
@@ -284,12 +284,13 @@ def sweep(
     except InputError as exc:
         _fail(exc)
     outcomes = run.outcomes
+    results = rows(outcomes)  # the results table, made once for the files, the recording and the terminal
     try:
-        write_results(outcomes, outdir)
-        write_comparison(outcomes, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
+        write_results(outcomes, outdir, results)
+        write_comparison(outcomes, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title, results)
     except (OSError, RunFailure) as exc:
         _fail(RunFailure(f"could not write the sweep's results in {outdir}: {getattr(exc, 'strerror', None) or exc}"))
-    typer.echo(terminal_table(outcomes, run.how))
+    typer.echo(terminal_table(outcomes, run.how, results))
     typer.echo(f"wrote {outdir / 'results.csv'}, {outdir / 'results.parquet'}, {outdir / (config.stem + '_sweep.rrd')}")
     if run.stopped:
         _stopped_line(f"rotlab: sweep stopped by {signal.Signals(run.stopped).name}: wrote the results of the cases that finished")

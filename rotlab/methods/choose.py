@@ -218,18 +218,25 @@ def _load_groups(loads) -> tuple | None:
 _MODEL_TYPES: dict[tuple, object] = {}  # load groups -> numba's type of the model (numba.typeof costs ~50 µs)
 
 
-def with_first_use(estimates: list[cost.Estimate], scene: Scene) -> list[cost.Estimate]:
+def with_first_use(estimates: list[cost.Estimate], loaded: dict[str, bool]) -> list[cost.Estimate]:
     """Add the one-time cost of loading each stepping method's kernel in this process, shared
     among the runs the process is expected to make: after k runs, ~k more (a sweep or a loop over
-    ``simulate`` soon makes loading the kernel worth it; a single ``rotlab run`` does not)."""
+    ``simulate`` soon makes loading the kernel worth it; a single ``rotlab run`` does not).
+    ``loaded``: method → its kernel is loaded for the scene (``kernels_loaded``)."""
     ready = _numba_ready()
     share = 1.0 / _expected_runs()
-    out = []
+    return [e if loaded[e.method] else e._replace(seconds=e.seconds + share * cost.first_use_seconds(e.method, ready))
+            for e in estimates]
+
+
+def kernels_loaded(estimates: list[cost.Estimate], scene: Scene) -> dict[str, bool]:
+    """method → its kernel is loaded in this process for ``scene`` (``exact`` has none: True),
+    asked once per method."""
+    loaded: dict[str, bool] = {}
     for e in estimates:
-        if e.method != "exact" and not _kernel_ready(e.method, scene):
-            e = e._replace(seconds=e.seconds + share * cost.first_use_seconds(e.method, ready))
-        out.append(e)
-    return out
+        if e.method not in loaded:
+            loaded[e.method] = e.method == "exact" or _kernel_ready(e.method, scene)
+    return loaded
 
 
 def _exact_kind(scene: Scene) -> str:
@@ -254,7 +261,9 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[str, str, Se
     no_series = get_method("taylor").unsupported(scene)
     if no_series and settings.order is None:  # a Python torque: no cost model knows its smoothness, dop853 controls its error
         return "dop853", f"auto: dop853 meets rtol = {settings.rtol:g} with error control ({no_series}); {kind}", settings
-    estimates = [e for e in with_first_use(candidates(scene, settings, work), scene) if get_method(e.method).unsupported(scene) is None]
+    estimates = candidates(scene, settings, work)
+    loaded = kernels_loaded(estimates, scene)
+    estimates = [e for e in with_first_use(estimates, loaded) if get_method(e.method).unsupported(scene) is None]
     if not estimates:
         raise InputError("solver.order", f"no method offers order {settings.order} for this {kind}; omit solver.order")
     meeting = [e for e in estimates if e.error <= ACCURACY_FACTOR * settings.rtol]
@@ -270,7 +279,7 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[str, str, Se
     compared = "; ".join(f"{e.label} {_seconds(e.seconds)}" + ("" if e.error <= ACCURACY_FACTOR * settings.rtol else f" (error ~{e.error:.0e})")
                          for e in others)
     floor = f"; stepping error floor near the separatrix ~{work.floor:.0e}" if work.floor > 1e-3 * settings.rtol else ""
-    if not all(_kernel_ready(e.method, scene) for e in estimates if e.method != "exact"):
+    if not all(loaded[e.method] for e in estimates):
         floor += "; the stepping methods' times include loading their numba kernel in this process"
     why = (f"auto: {best.label}, expected {_seconds(best.seconds)}: {verdict}"
            + (f" (vs {compared})" if compared else "") + f"; {kind}{floor}")

@@ -54,14 +54,20 @@ def reference_axes(runs: Runs) -> tuple[np.ndarray, np.ndarray]:
 
 def nutation(runs: Runs) -> np.ndarray:
     """ϑ(t) in radians, (B, N) (module docstring)."""
+    return np.arccos(_nutation_cosine(runs))
+
+
+def _nutation_cosine(runs: Runs) -> np.ndarray:
+    """cos ϑ(t) = R(t) e · d, (B, N), clipped to [−1, 1]."""
     e, d = reference_axes(runs)
     principal_e = np.einsum("bj,jk->bk", e, runs.scene.axes)  # R(Λ_user) e = R(Λ_P) Pᵀ e
-    return np.arccos(np.clip(quat.projection_array(runs.unit_q, principal_e, d), -1.0, 1.0))
+    return np.clip(quat.projection_array(runs.unit_q, principal_e, d), -1.0, 1.0)
 
 
 def observables(runs: Runs, flip_period_s: np.ndarray) -> dict[str, np.ndarray]:
-    """The observables of each run, (B,) each; ``flip_period_s`` from ``flips``."""
+    """The observables of each run, (B,) each; ``flip_period_s`` from ``flips``.  The largest ϑ
+    is arccos of the smallest cos ϑ (arccos decreases): one arccos per run."""
     if not runs.t.shape[0]:
         nan = np.full(runs.omega.shape[0], np.nan)
         return {"flip_period_s": nan, "max_nutation_deg": nan}
-    return {"flip_period_s": flip_period_s, "max_nutation_deg": np.degrees(np.max(nutation(runs), axis=-1))}
+    return {"flip_period_s": flip_period_s, "max_nutation_deg": np.degrees(np.arccos(np.min(_nutation_cosine(runs), axis=-1)))}

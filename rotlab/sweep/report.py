@@ -14,7 +14,10 @@ from pathlib import Path
 from rotlab.sweep.runner import CaseOutcome
 
 
-def rows(outcomes: list[CaseOutcome]) -> tuple[list[str], list[list[object]]]:
+Table = tuple[list[str], list[list[object]]]  # the results table: header, rows
+
+
+def rows(outcomes: list[CaseOutcome]) -> Table:
     """Column names and rows: case, one column per parameter (vectors spread out), results."""
     params: list[str] = []
     for o in outcomes:
@@ -47,12 +50,12 @@ def _number(value: float, digits: int) -> float | str:
     return "" if not math.isfinite(value) else round(float(value), digits)
 
 
-def write_results(outcomes: list[CaseOutcome], outdir: Path) -> list[Path]:
-    """results.csv and results.parquet (atomically)."""
+def write_results(outcomes: list[CaseOutcome], outdir: Path, results: Table | None = None) -> list[Path]:
+    """results.csv and results.parquet (atomically); ``results``: ``rows(outcomes)`` if already made."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    header, table = rows(outcomes)
+    header, table = results or rows(outcomes)
     csv_path, parquet_path = outdir / "results.csv", outdir / "results.parquet"
     tmp = csv_path.with_name(f".{csv_path.name}.{os.getpid()}.tmp")
     with tmp.open("w", newline="", encoding="utf-8") as f:
@@ -67,8 +70,8 @@ def write_results(outcomes: list[CaseOutcome], outdir: Path) -> list[Path]:
     return [csv_path, parquet_path]
 
 
-def terminal_table(outcomes: list[CaseOutcome], how: str) -> str:
-    header, table = rows(outcomes)
+def terminal_table(outcomes: list[CaseOutcome], how: str, results: Table | None = None) -> str:
+    header, table = results or rows(outcomes)
     keep = [k for k, name in enumerate(header) if name not in ("message",)]
     widths = [max(len(str(header[k])), *(len(_fmt(r[k])) for r in table)) for k in keep]
     lines = [f"sweep: {len(outcomes)} cases, run by {how}", "  ".join(str(header[k]).rjust(w) for k, w in zip(keep, widths))]
