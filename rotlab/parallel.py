@@ -1,5 +1,6 @@
-"""Local worker processes for batch runs and sweeps: one case per worker at a time, so that a
-worker's death, a case's time limit or a signal costs only that case.
+"""Local worker processes for batch runs and sweeps: one task per worker at a time (a case, or a
+chunk of a sweep's cases), so that a worker's death, a task's time limit or a signal costs only
+that task (a sweep runs a chunk whose worker died again case by case: then only its culprit fails).
 
 Workers are ``spawn``ed: forking a process that already runs threads (numba's parallel layer,
 Rerun's writer) is unsafe, and a spawned worker is a child of the main process, so it can ask the

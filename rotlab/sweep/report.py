@@ -1,6 +1,6 @@
 """Sweep outputs: a results table (CSV and Parquet) and a terminal table.  One row per case:
-its parameters, status, method, steps, wall time (``seconds``: this case's own; empty when the
-cases ran together in the ensemble kernel), the observables of ``rotlab.sweep.observables`` and
+its parameters, status, method, steps, wall time (``seconds``: this case's own run and its share of
+the report made for its worker's chunk of cases; empty when the cases ran together in the ensemble kernel), the observables of ``rotlab.sweep.observables`` and
 the max drift of each invariant.  The recording that compares the cases is written by
 ``rotlab.recording.sweep``."""
 

@@ -1,6 +1,8 @@
 """Run a sweep's cases: local processes (default), a Dask cluster (``--dask``), or — when only
 initial conditions vary and the method is ``rk4`` — one ensemble kernel call for all bodies.
-A failing case is reported with its error; the others complete."""
+Local workers take the cases in chunks (``chunk_size``): a worker validates its chunk's cases,
+runs them one after the other and reports them together, the runs of one body and loads stacked
+(``outcomes_of``).  A failing case is reported with its error; the others complete."""
 
 from __future__ import annotations
 
