@@ -105,7 +105,7 @@ def main() -> None:
     print(f"   {'part':44s} {'µs':>8s}   {'× solve':>8s}")
     rows = [("solve (Method.solve, the integration)", solve), ("validate (the case's scenario, in its worker)", validate),
             ("simulate (scene, choice, solve, trajectory)", simulate),
-            (f"report (checks, observables, series; {CHUNK_CASES} together)", report), ("round trip of an empty task (1 worker)", round_trip)]
+            (f"report ({CHUNK_CASES} cases at once), per case", report), ("round trip of an empty task (1 worker)", round_trip)]
     rows += [(f"rotlab sweep -j {jobs}, wall / cases", us) for jobs, us in sweep.items()]
     for name, us in rows:
         print(f"   {name:44s} {us:8.0f}   {us / solve:8.1f}")
