@@ -244,7 +244,8 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     """Every case: the ensemble kernel when eligible, else local worker processes or the Dask
     cluster at ``dask_address``.  Local workers take the cases in chunks (``chunk_size``),
     validate and run them and report them together; a chunk whose worker died is run again one
-    case per task, so a case that kills its worker costs that case only.  With a per-case
+    case per task (with ``retries``: the chunk's attempt, which cannot name the case that was
+    running, is not counted), so a case that kills its worker costs that case only.  With a per-case
     ``timeout``, one case per task from the start (its clock is the case's)."""
     if dask_address is None and timeout is None and ensemble_eligible(p):
         started = time.perf_counter()
