@@ -115,9 +115,20 @@ def _drift_check(name: str, value: float, bound: float, source: str, basis: str)
 
 def flip_times(t: np.ndarray, component: np.ndarray) -> np.ndarray:
     """Times where ``component`` changes sign, by linear interpolation between samples."""
-    s = np.sign(component)
-    k = np.nonzero(s[:-1] * s[1:] < 0)[0]
-    return t[k] - component[k] * (t[k + 1] - t[k]) / (component[k + 1] - component[k])
+    return _crossing(t, component, np.nonzero(_sign_changes(component))[0])
+
+
+def _sign_changes(c: np.ndarray) -> np.ndarray:
+    """(..., N − 1): c changes sign between samples k and k + 1."""
+    s = np.sign(c)
+    return s[..., :-1] * s[..., 1:] < 0
+
+
+def _crossing(t: np.ndarray, c: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Where c (..., N) crosses zero between samples k and k + 1 (k indexes its last axis), by
+    linear interpolation: t_k − c_k (t_{k+1} − t_k) / (c_{k+1} − c_k)."""
+    ck, cn = np.take_along_axis(c, k, -1), np.take_along_axis(c, k + 1, -1)
+    return t[k] - ck * (t[k + 1] - t[k]) / (cn - ck)
 
 
 def flip_period(t: np.ndarray, component: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -127,17 +138,12 @@ def flip_period(t: np.ndarray, component: np.ndarray) -> tuple[np.ndarray, np.nd
     c = np.asarray(component, dtype=float)
     if c.shape[-1] < 2:
         return np.full(c.shape[:-1], math.nan)[()], np.zeros(c.shape[:-1], dtype=np.int64)[()]
-    s = np.sign(c)
-    changes = s[..., :-1] * s[..., 1:] < 0
+    changes = _sign_changes(c)
     reversals = np.count_nonzero(changes, axis=-1)
     first = np.argmax(changes, axis=-1)[..., None]
     last = changes.shape[-1] - 1 - np.argmax(changes[..., ::-1], axis=-1)[..., None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        def crossing(k: np.ndarray) -> np.ndarray:
-            ck, cn = np.take_along_axis(c, k, -1), np.take_along_axis(c, k + 1, -1)
-            return (t[k] - ck * (t[k + 1] - t[k]) / (cn - ck))[..., 0]
-
-        period = 2.0 * (crossing(last) - crossing(first)) / np.maximum(reversals - 1, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # no reversal: first = last = 0, maybe 0/0
+        period = 2.0 * (_crossing(t, c, last) - _crossing(t, c, first))[..., 0] / np.maximum(reversals - 1, 1)
     return np.where(reversals >= MIN_REVERSALS, period, math.nan)[()], reversals[()]
 
 

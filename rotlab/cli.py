@@ -286,8 +286,8 @@ def sweep(
     outcomes = run.outcomes
     results = rows(outcomes)  # the results table, made once for the files, the recording and the terminal
     try:
-        write_results(outcomes, outdir, results)
-        write_comparison(outcomes, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title, results)
+        write_results(results, outdir)
+        write_comparison(outcomes, results, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
     except (OSError, RunFailure) as exc:
         _fail(RunFailure(f"could not write the sweep's results in {outdir}: {getattr(exc, 'strerror', None) or exc}"))
     typer.echo(terminal_table(outcomes, run.how, results))

@@ -269,7 +269,7 @@ class RunSummary:
 class Reference:
     """The values at the run's first sample that the drifts are measured from (principal frame),
     shaped to broadcast against the run's samples: (1, 3) vectors and (1,) scalars for one run,
-    (B, 1, 3) and (B, 1) for B stacked runs (``stacked_drifts``)."""
+    (B, 1, 3) and (B, 1) for B stacked runs (``stack_runs``)."""
 
     L_p: np.ndarray  # body L₀
     L_space: np.ndarray  # space L₀

@@ -24,7 +24,7 @@ import numpy as np
 from rotlab.recording import scatter as sc
 from rotlab.recording.layout import TIMELINE
 from rotlab.recording.style import AXIS_TRACE, ramp
-from rotlab.sweep.report import Table, rows
+from rotlab.sweep.report import Table
 from rotlab.sweep.runner import CaseOutcome
 
 MAX_COMPARED = 50
@@ -69,11 +69,10 @@ def slug(name: str) -> str:
     return re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9_]", "_", name)).strip("_")
 
 
-def plots(results: Table, colors: dict[int, tuple[int, int, int]] | None = None) -> dict[str, dict[str, sc.Scatter]]:
-    """parameter → observable → scatter (observables undefined in every case are left out);
-    ``colors``: ``case_colors(results)`` if already made."""
+def plots(results: Table, colors: dict[int, tuple[int, int, int]]) -> dict[str, dict[str, sc.Scatter]]:
+    """parameter → observable → scatter (observables undefined in every case are left out), in
+    the cases' ``colors`` (``case_colors``)."""
     header, table = results
-    colors = colors or case_colors(results)
     point_colors = [colors[int(r[0])] for r in table]
     out: dict[str, dict[str, sc.Scatter]] = {}
     for param in parameter_columns(results):
@@ -135,9 +134,9 @@ def _spin_component(shown: list[CaseOutcome]) -> int:
     return int(np.argmax(spread)) if shown else 0
 
 
-def write_comparison(outcomes: list[CaseOutcome], path: Path, title: str, results: Table | None = None) -> Path:
-    """One recording comparing up to ``MAX_COMPARED`` cases (atomically); ``results``:
-    ``rows(outcomes)`` if already made."""
+def write_comparison(outcomes: list[CaseOutcome], results: Table, path: Path, title: str) -> Path:
+    """One recording comparing up to ``MAX_COMPARED`` cases (atomically); ``results``: their
+    results table (``rotlab.sweep.report.rows``)."""
     import rerun as rr
 
     from rotlab.recording.writer import check_output_path
@@ -145,7 +144,6 @@ def write_comparison(outcomes: list[CaseOutcome], path: Path, title: str, result
     check_output_path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     shown = [o for o in outcomes if o.t is not None][:MAX_COMPARED]
-    results = results or rows(outcomes)
     header, table = results
     colors = case_colors(results)
     scatters = plots(results, colors)

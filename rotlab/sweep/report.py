@@ -50,12 +50,12 @@ def _number(value: float, digits: int) -> float | str:
     return "" if not math.isfinite(value) else round(float(value), digits)
 
 
-def write_results(outcomes: list[CaseOutcome], outdir: Path, results: Table | None = None) -> list[Path]:
-    """results.csv and results.parquet (atomically); ``results``: ``rows(outcomes)`` if already made."""
+def write_results(results: Table, outdir: Path) -> list[Path]:
+    """results.csv and results.parquet of the results table (``rows``), atomically."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    header, table = results or rows(outcomes)
+    header, table = results
     csv_path, parquet_path = outdir / "results.csv", outdir / "results.parquet"
     tmp = csv_path.with_name(f".{csv_path.name}.{os.getpid()}.tmp")
     with tmp.open("w", newline="", encoding="utf-8") as f:
@@ -70,8 +70,9 @@ def write_results(outcomes: list[CaseOutcome], outdir: Path, results: Table | No
     return [csv_path, parquet_path]
 
 
-def terminal_table(outcomes: list[CaseOutcome], how: str, results: Table | None = None) -> str:
-    header, table = results or rows(outcomes)
+def terminal_table(outcomes: list[CaseOutcome], how: str, results: Table) -> str:
+    """The results table (``rows(outcomes)``) for the terminal, the failing cases, a count."""
+    header, table = results
     keep = [k for k, name in enumerate(header) if name not in ("message",)]
     widths = [max(len(str(header[k])), *(len(_fmt(r[k])) for r in table)) for k in keep]
     lines = [f"sweep: {len(outcomes)} cases, run by {how}", "  ".join(str(header[k]).rjust(w) for k, w in zip(keep, widths))]
