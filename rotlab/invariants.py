@@ -1,6 +1,6 @@
 """The invariants rotlab reports: one row per invariant — its name, the label a recording shows,
 when a scene has it, and its relative drift.  Config checks, scenes, trajectories and the
-recording all read this table (this module imports only numpy).
+recording all read this table (this module needs only numpy).
 
     T = ½ ω·Iω,  L = Iω (body) and R L (space),  V = −Σ F·(R p),  W = ∫ M_nc·ω dt,  H = T + V − W.
 Scale: |L₀| for momenta, max(|H₀|, T₀ + |V₀|) for energy; absolute when the scale is zero.
@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from rotlab.rows import row_norm
 
 
 @dataclass(frozen=True)
@@ -58,11 +60,11 @@ TABLE: tuple[Invariant, ...] = (
     Invariant("energy", "T+V−W", lambda scene: True,
               lambda s: _relative(s.energy - s.energy0, s.energy_scale)),
     Invariant("quaternion_norm", "|Λ|−1", lambda scene: True,
-              lambda s: np.linalg.norm(s.q, axis=-1) - 1.0, full_rate=False),  # a function of Λ alone, which is kept
+              lambda s: row_norm(s.q) - 1.0, full_rate=False),  # a function of Λ alone, which is kept
     Invariant("L_norm", "|L|", lambda scene: scene.kind == "torque_free",
-              lambda s: _relative(np.linalg.norm(s.L_body, axis=-1) - s.L_scale, s.L_scale)),
+              lambda s: _relative(row_norm(s.L_body) - s.L_scale, s.L_scale)),
     Invariant("L_space", "L space", lambda scene: scene.kind == "torque_free",
-              lambda s: _relative(np.linalg.norm(s.L_space - s.L_space0, axis=-1), s.L_scale)),
+              lambda s: _relative(row_norm(s.L_space - s.L_space0), s.L_scale)),
     Invariant("L_vertical", "L·up", lambda scene: scene.field_direction is not None,
               lambda s: _relative(np.einsum("...j,j->...", s.L_space - s.L_space0, s.field_direction), s.L_scale)),
     Invariant("L_symmetry", "L·e", lambda scene: scene.symmetry_axis is not None,

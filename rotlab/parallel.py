@@ -43,6 +43,8 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.reduction import ForkingPickler
 from typing import Any, Callable, Sequence
 
+from rotlab.heap import keep_heap
+
 RUN_MODULES = ("rotlab.api", "rotlab.checks", "rotlab.recording.writer")  # what running a case imports
 STARTED = "started"  # what a worker sends when it begins a task
 KILL_GRACE = 2.0  # s between SIGTERM and SIGKILL when workers are stopped
@@ -347,6 +349,7 @@ def _serve(fn: Callable[..., Any], conn: Connection, preload: tuple[str, ...], p
     """Worker loop: run tasks from ``conn`` until told to stop (None) or the pipe closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent(parent)
+    keep_heap()  # the tasks' NumPy temporaries reuse the heap instead of faulting in fresh pages
     for module in preload:
         importlib.import_module(module)
     if "pyarrow" in sys.modules:  # it writes recordings, and holds no pandas objects (rotlab.recording.arrow)

@@ -16,6 +16,7 @@ import numpy as np
 
 from rotlab import invariants
 from rotlab.core import quaternion as quat
+from rotlab.rows import row_dot, row_norm, unit_rows
 from rotlab.methods.base import Solution
 from rotlab.scene.scene import Scene
 
@@ -305,7 +306,7 @@ def _reference(quantities) -> Reference:
     unit_q, L_p, L_space, kinetic, potential, _, invariant_energy = quantities
     v0 = np.abs(potential[..., :1]) if potential is not None else 0.0
     h0 = invariant_energy[..., :1].copy()
-    return Reference(L_p[..., :1, :].copy(), L_space[..., :1, :].copy(), np.linalg.norm(L_p[..., :1, :], axis=-1), h0,
+    return Reference(L_p[..., :1, :].copy(), L_space[..., :1, :].copy(), row_norm(L_p[..., :1, :]), h0,
                      np.maximum(np.abs(h0), kinetic[..., :1] + v0))
 
 
@@ -313,10 +314,10 @@ def _reference(quantities) -> Reference:
 def _quantities(scene: Scene, state: np.ndarray):
     """(unit Λ_P, L_P, L_space, T, V (None without a field), T + V, T + V − W) of principal-frame rows."""
     q_p, w_p, work = state[..., 0:4], state[..., 4:7], state[..., 7]
-    unit_q = q_p / np.linalg.norm(q_p, axis=-1, keepdims=True)
+    unit_q = unit_rows(q_p)
     L_p = w_p * scene.moments
     L_space = quat.rotate_to_space_array(unit_q, L_p)
-    kinetic = 0.5 * np.sum(w_p * L_p, axis=-1)
+    kinetic = 0.5 * row_dot(w_p, L_p)
     potential = _potential(scene, unit_q) if scene.has_potential else None
     total = kinetic if potential is None else kinetic + potential
     return unit_q, L_p, L_space, kinetic, potential, total, total - work

@@ -14,6 +14,8 @@ import math
 import numpy as np
 from numba import njit
 
+from rotlab.rows import row_dot
+
 
 @njit(cache=True, inline="always")
 def qmul(a0, a1, a2, a3, b0, b1, b2, b3):
@@ -83,10 +85,14 @@ def conjugate_array(q: np.ndarray) -> np.ndarray:
 
 def rotate_to_space_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """R(Λ) v for arrays q (..., 4) and v (..., 3), Λ assumed unit."""
-    q0 = q[..., :1]
-    qv = q[..., 1:]
-    t = 2.0 * cross_array(qv, v)
-    return v + q0 * t + cross_array(qv, t)
+    q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    t1, t2, t3 = 2.0 * (q2 * z - q3 * y), 2.0 * (q3 * x - q1 * z), 2.0 * (q1 * y - q2 * x)  # t = 2 q × v
+    out = np.empty(np.broadcast_shapes(q.shape[:-1], v.shape[:-1]) + (3,), dtype=np.result_type(q, v))
+    np.add(x + q0 * t1, q2 * t3 - q3 * t2, out=out[..., 0])  # v + q0 t + q × t, one component at a time
+    np.add(y + q0 * t2, q3 * t1 - q1 * t3, out=out[..., 1])
+    np.add(z + q0 * t3, q1 * t2 - q2 * t1, out=out[..., 2])
+    return out
 
 
 def projection_array(q: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -95,12 +101,15 @@ def projection_array(q: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
 
         (R w)·v = (2 q0² − 1)(w·v) + 2 (q·w)(q·v) + 2 q0 q·(w × v)     (q the vector part, |Λ| = 1),
 
-    one (N, 3)·(3, 3) product per run instead of rotating N vectors."""
+    three dot products per sample instead of rotating N vectors."""
     w, v = np.asarray(w, dtype=float), np.asarray(v, dtype=float)
-    columns = np.stack([w, v, cross_array(w, v)], axis=-1)  # (..., 3, 3): columns w, v, w × v
-    p = np.einsum("...nj,...jk->...nk", q[..., 1:], columns)
-    q0 = q[..., 0]
-    return (2.0 * q0 * q0 - 1.0) * np.sum(w * v, axis=-1)[..., None] + 2.0 * (p[..., 0] * p[..., 1] + q0 * p[..., 2])
+    q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+
+    def along(u: np.ndarray) -> np.ndarray:  # q·u, u fixed along each run
+        u = u[..., None, :]
+        return q1 * u[..., 0] + q2 * u[..., 1] + q3 * u[..., 2]
+
+    return (2.0 * q0 * q0 - 1.0) * row_dot(w, v)[..., None] + 2.0 * (along(w) * along(v) + q0 * along(cross_array(w, v)))
 
 
 def rotate_to_body_array(q: np.ndarray, v: np.ndarray) -> np.ndarray:
