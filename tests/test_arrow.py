@@ -70,7 +70,23 @@ def test_rotlab_run_imports_no_pandas(tmp_path):
     assert (tmp_path / "r.rrd").stat().st_size > 10_000
 
 
-def _config():
+def test_rotlab_sweep_imports_no_pandas(tmp_path):
+    """The sweep command writes results.parquet and the comparison recording without pandas."""
+    out = _python(f"""
+        import sys
+        sys.argv = ["rotlab", "sweep", {str(_config("sweep_flip.toml"))!r}, "-o", {str(tmp_path / "out")!r}, "-j", "1"]
+        from rotlab.cli import main
+        try:
+            main()
+        except SystemExit as done:
+            assert not done.code, done.code
+        print("pandas" in sys.modules)
+    """)
+    assert out.split()[-1] == "False"
+    assert (tmp_path / "out" / "results.parquet").stat().st_size > 1_000
+
+
+def _config(name: str = "lagrange.toml"):
     from pathlib import Path
 
-    return Path(__file__).resolve().parents[1] / "configs" / "lagrange.toml"
+    return Path(__file__).resolve().parents[1] / "configs" / name

@@ -1,9 +1,11 @@
-"""pyarrow without pandas in rotlab's own processes (``rotlab run``, batch and sweep workers).
+"""pyarrow without pandas in rotlab's own processes (``rotlab run``, ``rotlab sweep``, batch and
+sweep workers).
 
 Rerun converts every NumPy column with ``pyarrow.array``, whose first call asks "is this a pandas
 Series?" and, to answer, imports pandas if it is installed: 0.2 s and ~40 MB of a process that
-never holds a pandas object (apache/arrow#34994).  ``withhold_pandas`` lets that first probe find
-no pandas, so pyarrow answers "not a Series" from then on; pyarrow's pandas APIs
+never holds a pandas object (apache/arrow#34994); the first conversion of a Python sequence (a
+sweep's results.parquet) asks again, from C++.  ``withhold_pandas`` lets both probes find no
+pandas, so pyarrow answers "not pandas" from then on; pyarrow's pandas APIs
 (``Table.to_pandas``, ``pa.array(series)`` after pandas is in use) import pandas themselves when
 called, as before.  Only for processes whose pyarrow calls are rotlab's: a library user's own
 process is left alone.
@@ -35,6 +37,7 @@ def withhold_pandas() -> bool:
     sys.meta_path.insert(0, blocker)
     try:
         pa.array(np.zeros(1))  # NumPy input: pyarrow checks is_series once, and remembers the answer
+        pa.array([0.0])  # a Python sequence (a sweep's results table): its C++ converter's own probe, also remembered
     finally:
         sys.meta_path.remove(blocker)
     return "pandas" not in sys.modules
