@@ -42,3 +42,20 @@ def axisymmetric_free_body(a: float, c: float, omega0: np.ndarray, q0: np.ndarra
 def same_rotation_error(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
     """|qa − qb| up to the sign ambiguity of unit quaternions (±Λ is the same rotation)."""
     return np.minimum(np.linalg.norm(qa - qb, axis=-1), np.linalg.norm(qa + qb, axis=-1))
+
+
+def heap_free_after_a_large_temporary() -> int:
+    """Bytes glibc's heap holds free after a 4 MB NumPy array is made and dropped (``mallinfo2``):
+    ~4 MB when the heap is kept (``rotlab.heap.keep_heap``), ~0 when the block was mapped and
+    given back (glibc's defaults)."""
+    import ctypes
+
+    class MallInfo2(ctypes.Structure):
+        _fields_ = [(name, ctypes.c_size_t) for name in
+                    ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks", "fordblks", "keepcost")]
+
+    mallinfo2 = ctypes.CDLL(None).mallinfo2
+    mallinfo2.restype = MallInfo2
+    temporary = np.ones(1 << 19)
+    del temporary
+    return int(mallinfo2().fordblks)
