@@ -223,3 +223,28 @@ def test_a_chunk_whose_worker_died_runs_again_case_by_case(write, monkeypatch):
     assert [o.status for o in run.outcomes] == ["pass"] * 7 + ["error"] + ["pass"] * 12
     assert run.outcomes[7].message == "worker died (killed by SIGKILL)"
     assert f"{size} cases a task" in run.how
+
+
+@pytest.mark.parametrize("cases, failing", [(12, {3, 7}), (400, {5, 9, 300}), (400, set(range(0, 400, 5)))])
+def test_the_terminal_shows_a_large_sweeps_failing_cases_only(cases, failing):
+    """Up to ``TERMINAL_ROWS`` cases every row is printed; beyond, the rows and messages of (at
+    most ``TERMINAL_ROWS``) cases that did not pass, and where the rest are."""
+    from rotlab.sweep.report import TERMINAL_ROWS, rows, terminal_table
+    from rotlab.sweep.runner import CaseOutcome
+
+    outcomes = [CaseOutcome(k, {"initial.omega[0]": 0.1 * k}, "fail" if k in failing else "pass", method="rk4",
+                            message=f"case {k} broke a bound" if k in failing else "") for k in range(cases)]
+    lines = terminal_table(outcomes, "1 local worker process", rows(outcomes)).splitlines()
+    table_rows = [line for line in lines[2:-1] if line.split()[0].isdigit()]
+    messages = [line for line in lines if line.startswith("case ") and ": " in line]
+    assert lines[-1] == f"{cases - len(failing)} passed, {len(failing)} failed"
+    if cases <= TERMINAL_ROWS:
+        assert [int(line.split()[0]) for line in table_rows] == list(range(cases))
+        assert not any("not shown" in line for line in lines)
+    else:
+        shown = sorted(failing)[:TERMINAL_ROWS]
+        assert [int(line.split()[0]) for line in table_rows] == shown
+        assert f"({cases - len(failing):,} passing cases not shown: every case is in results.csv)" in lines
+        more = len(failing) - TERMINAL_ROWS
+        assert (f"(and {more:,} more cases that did not pass: see results.csv)" in lines) == (more > 0)
+    assert messages == [f"case {k}: FAIL: case {k} broke a bound" for k in sorted(failing)[:TERMINAL_ROWS]]

@@ -71,16 +71,29 @@ def write_results(results: Table, outdir: Path) -> list[Path]:
 
 
 def terminal_table(outcomes: list[CaseOutcome], how: str, results: Table) -> str:
-    """The results table (``rows(outcomes)``) for the terminal, the failing cases, a count."""
+    """The results table (``rows(outcomes)``) for the terminal, the failing cases, a count.  A
+    sweep of more than ``TERMINAL_ROWS`` cases shows only the rows and messages of (at most
+    ``TERMINAL_ROWS``) cases that did not pass: every case is in results.csv."""
     header, table = results
-    keep = [k for k, name in enumerate(header) if name not in ("message",)]
-    widths = [max(len(str(header[k])), *(len(_fmt(r[k])) for r in table)) for k in keep]
-    lines = [f"sweep: {len(outcomes)} cases, run by {how}", "  ".join(str(header[k]).rjust(w) for k, w in zip(keep, widths))]
-    lines += ["  ".join(_fmt(r[k]).rjust(w) for k, w in zip(keep, widths)) for r in table]
-    lines += [f"case {o.index}: {o.status.upper()}: {o.message}" for o in outcomes if o.status != "pass"]
-    passed = sum(o.status == "pass" for o in outcomes)
-    lines.append(f"{passed} passed, {len(outcomes) - passed} failed")
+    failing = [k for k, o in enumerate(outcomes) if o.status != "pass"]
+    shown = range(len(table)) if len(table) <= TERMINAL_ROWS else failing[:TERMINAL_ROWS]
+    lines = [f"sweep: {len(outcomes)} cases, run by {how}"]
+    if shown:
+        keep = [k for k, name in enumerate(header) if name not in ("message",)]
+        widths = [max(len(str(header[k])), *(len(_fmt(table[i][k])) for i in shown)) for k in keep]
+        lines.append("  ".join(str(header[k]).rjust(w) for k, w in zip(keep, widths)))
+        lines += ["  ".join(_fmt(table[i][k]).rjust(w) for k, w in zip(keep, widths)) for i in shown]
+    passing = len(outcomes) - len(failing)
+    if len(shown) < len(table):
+        lines.append(f"({passing:,} passing {'case' if passing == 1 else 'cases'} not shown: every case is in results.csv)")
+    lines += [f"case {outcomes[k].index}: {outcomes[k].status.upper()}: {outcomes[k].message}" for k in failing[:TERMINAL_ROWS]]
+    if len(failing) > TERMINAL_ROWS:
+        lines.append(f"(and {len(failing) - TERMINAL_ROWS:,} more cases that did not pass: see results.csv)")
+    lines.append(f"{passing} passed, {len(failing)} failed")
     return "\n".join(lines)
+
+
+TERMINAL_ROWS = 50  # a larger sweep's terminal table shows only the cases that did not pass
 
 
 def _fmt(value: object) -> str:
