@@ -9,6 +9,7 @@ from __future__ import annotations
 import copy
 import re
 import tomllib
+from functools import lru_cache
 from typing import Any, Callable
 
 from rotlab.errors import InputError
@@ -20,6 +21,12 @@ Defaults = Callable[[list[str | int]], Any]  # the validated value at a path (fo
 
 def parse_key_path(path: str, where: str) -> list[str | int]:
     """'loads[0].value[2]' → ['loads', 0, 'value', 2]; ``where`` names the path in errors."""
+    return list(_key_parts(path, where))
+
+
+@lru_cache(maxsize=256)
+def _key_parts(path: str, where: str) -> tuple[str | int, ...]:
+    """``parse_key_path``'s parts, parsed once per path (a sweep sets the same paths in every case)."""
     parts: list[str | int] = []
     for piece in path.split("."):
         match = _PART.fullmatch(piece)
@@ -27,7 +34,7 @@ def parse_key_path(path: str, where: str) -> list[str | int]:
             raise InputError(where, "not a key path: write e.g. initial.omega[2] or body.mass")
         parts.append(match.group(1))
         parts.extend(int(k) for k in re.findall(r"\[(\d+)\]", match.group(2)))
-    return parts
+    return tuple(parts)
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:

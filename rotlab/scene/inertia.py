@@ -7,6 +7,8 @@ x_i² + x_j² ≥ x_k² ... summed over the mass).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 SYMMETRY_RTOL = 1e-9
@@ -29,10 +31,10 @@ def principal_axes(tensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return moments, axes
 
 
-def triangle_violation(moments: np.ndarray) -> str | None:
+def triangle_violation(moments: Sequence[float]) -> str | None:
     """The first violated triangle inequality as text (e.g. 'A + B < C'), or None."""
     names = "ABC"
-    scale = float(np.sum(moments))
+    scale = float(sum(moments))  # (A + B) + C, as np.sum adds three numbers
     for k in range(3):
         i, j = (k + 1) % 3, (k + 2) % 3
         if moments[i] + moments[j] < moments[k] - TRIANGLE_RTOL * scale:
