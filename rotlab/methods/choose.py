@@ -223,10 +223,12 @@ def with_first_use(estimates: list[cost.Estimate], loaded: dict[str, bool]) -> l
     among the runs the process is expected to make: after k runs, ~k more (a sweep or a loop over
     ``simulate`` soon makes loading the kernel worth it; a single ``rotlab run`` does not).
     ``loaded``: method → its kernel is loaded for the scene (``kernels_loaded``)."""
+    if all(loaded.values()):
+        return estimates
     ready = _numba_ready()
     share = 1.0 / _expected_runs()
-    return [e if loaded[e.method] else e._replace(seconds=e.seconds + share * cost.first_use_seconds(e.method, ready))
-            for e in estimates]
+    extra = {name: 0.0 if is_loaded else share * cost.first_use_seconds(name, ready) for name, is_loaded in loaded.items()}
+    return [e if loaded[e.method] else e._replace(seconds=e.seconds + extra[e.method]) for e in estimates]
 
 
 def kernels_loaded(estimates: list[cost.Estimate], scene: Scene) -> dict[str, bool]:
@@ -263,7 +265,8 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[str, str, Se
         return "dop853", f"auto: dop853 meets rtol = {settings.rtol:g} with error control ({no_series}); {kind}", settings
     estimates = candidates(scene, settings, work)
     loaded = kernels_loaded(estimates, scene)
-    estimates = [e for e in with_first_use(estimates, loaded) if get_method(e.method).unsupported(scene) is None]
+    runs = {name: get_method(name).unsupported(scene) is None for name in loaded}
+    estimates = [e for e in with_first_use(estimates, loaded) if runs[e.method]]
     if not estimates:
         raise InputError("solver.order", f"no method offers order {settings.order} for this {kind}; omit solver.order")
     meeting = [e for e in estimates if e.error <= ACCURACY_FACTOR * settings.rtol]

@@ -33,7 +33,7 @@ drift in time by ~δ ΩT / (m₁ K) radians over the run.  With κ = ΩT / (m₁
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 CONSTANTS = {  # python benchmarks/fit_cost_model.py, 2026-11-23, 1-min load 1.56 (2 cores shared by other jobs)
@@ -101,7 +101,8 @@ class Estimate(NamedTuple):
 @dataclass(frozen=True)
 class Work:
     """What the cost depends on: span T (s), samples n, rate scale Ω (rad/s), breakpoints, load kind
-    ("free" | "forces" | "loads") and the stepping methods' error floor."""
+    ("free" | "forces" | "loads") and the stepping methods' error floor; ``radians`` ΩT and the
+    sample ``interval`` T/(n − 1) follow (computed once: every estimate reads them)."""
 
     span: float
     samples: int
@@ -110,14 +111,12 @@ class Work:
     loads: str
     floor: float
     amplification: float = 1.0  # how much a stepping method's error exceeds its tolerance (separatrix)
+    radians: float = field(init=False)
+    interval: float = field(init=False)
 
-    @property
-    def radians(self) -> float:
-        return self.rate * self.span
-
-    @property
-    def interval(self) -> float:
-        return self.span / max(self.samples - 1, 1)
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "radians", self.rate * self.span)
+        object.__setattr__(self, "interval", self.span / max(self.samples - 1, 1))
 
 
 def first_use_seconds(name: str, numba_ready: bool) -> float:
@@ -143,12 +142,13 @@ def fixed_step_estimate(name: str, order: int | None, p: int, target: float, wor
     steps, and ``PROBE_PYTHON`` of Python around them), which the estimate then includes."""
     label = name if order is None else f"{name}-{order}"
     constant = CONSTANTS["error_constants"][label]
-    x = min(MAX_ROTATION_PER_STEP, step_limit, (target / (constant * max(work.radians, 1e-300))) ** (1.0 / p))
-    per_interval = max(1, math.ceil(work.interval * work.rate / x - 1e-9))
+    radians, rotation = work.radians, work.interval * work.rate  # over the run, and per sample interval
+    x = min(MAX_ROTATION_PER_STEP, step_limit, (target / (constant * max(radians, 1e-300))) ** (1.0 / p))
+    per_interval = max(1, math.ceil(rotation / x - 1e-9))
     steps = per_interval * max(work.samples - 1, 1)
     if name == "dmv":
         c = CONSTANTS["dmv"]
-        x_run = max(min(work.interval * work.rate / per_interval, 0.9), 1e-12)
+        x_run = max(min(rotation / per_interval, 0.9), 1e-12)
         per_step = c["per_step_a"] + c["per_step_b"] / -math.log(x_run)
     else:
         c = CONSTANTS[label]
@@ -156,7 +156,7 @@ def fixed_step_estimate(name: str, order: int | None, p: int, target: float, wor
     seconds = c["per_call"] + per_step * steps + c["per_sample"] * work.samples
     if probe:
         seconds += 2.0 * c["per_call"] + 120.0 * per_step + PROBE_PYTHON
-    error = max(constant * x**p * work.radians * work.amplification, work.floor)
+    error = max(constant * x**p * radians * work.amplification, work.floor)
     return Estimate(name, seconds, error, order, work.interval / per_interval)
 
 
@@ -174,9 +174,11 @@ def taylor_estimate(order: int | None, tolerance: float, work: Work) -> Estimate
     amplification (the Jorba–Zou step keeps the bench's errors at 0.01–20× the tolerance)."""
     if order is None:
         first = max(4, math.ceil(-0.5 * math.log(tolerance)) + 1)
-        order = min(range(first, first + TAYLOR_EXTRA_ORDERS + 1), key=lambda n: taylor_seconds(n, tolerance, work))
+        seconds, order = min((taylor_seconds(n, tolerance, work), n) for n in range(first, first + TAYLOR_EXTRA_ORDERS + 1))
+    else:
+        seconds = taylor_seconds(order, tolerance, work)
     error = max(tolerance * work.amplification, work.floor)
-    return Estimate("taylor", taylor_seconds(order, tolerance, work), error, order, None, tolerance)
+    return Estimate("taylor", seconds, error, order, None, tolerance)
 
 
 def separatrix(moments: tuple[float, float, float], omega: tuple[float, float, float], span: float, rate: float) -> tuple[float, float]:
