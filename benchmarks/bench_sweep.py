@@ -63,6 +63,7 @@ def main() -> None:
 
     import rotlab
     from rotlab.api import _plan
+    from rotlab.heap import keep_heap
     from rotlab.methods.choose import expect_runs
     from rotlab.parallel import run_tasks
     from rotlab.scene.scene import build_scene
@@ -80,6 +81,7 @@ def main() -> None:
 
         p = plan(config)
         expect_runs(args.cases)  # as a sweep worker is told
+        keep_heap()  # as a worker does (rotlab.heap)
         for scenario in p.scenarios[-20:]:
             rotlab.simulate(scenario)  # kernels loaded
         third = min(len(p.scenarios), 1500) // 3  # three sets of cases, none seen before by auto's cache

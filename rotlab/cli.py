@@ -268,26 +268,33 @@ def sweep(
     retries: Annotated[int, typer.Option("--retries", min=0, help="Run a case again when its worker dies (default 0).")] = 0,
 ) -> None:
     """Run a parameter sweep; exit 1 if any case errs or breaks a [checks] bound."""
-    from rotlab.errors import InputError, RunFailure
-    from rotlab.heap import keep_heap
-    from rotlab.outdir import prepare_outdir
-    from rotlab.parallel import exit_after_stop
-    from rotlab.recording.arrow import withhold_pandas
-    from rotlab.recording.sweep import write_comparison
-    from rotlab.sweep.report import rows, terminal_table, write_results
-    from rotlab.sweep.runner import plan, run_cases
+    from contextlib import nullcontext
 
-    keep_heap()  # the ensemble path reports its cases here, and the results table is built here
-    withhold_pandas()  # pyarrow would import pandas (0.2 s, ~40 MB) to ask if our arrays are Series
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.sweep.runner import plan, run_cases, start_workers
 
     try:
         _check_timeout(timeout, dask)
-        sweep_plan = plan(config)
-        prepare_outdir(outdir)
-        exit_after_stop()
-        run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries)
     except InputError as exc:
         _fail(exc)
+    # the local workers start now: their imports run while this process imports and plans
+    with start_workers(config, jobs) if dask is None else nullcontext() as warm:
+        from rotlab.heap import keep_heap
+        from rotlab.outdir import prepare_outdir
+        from rotlab.parallel import exit_after_stop
+        from rotlab.recording.arrow import withhold_pandas
+        from rotlab.recording.sweep import write_comparison
+        from rotlab.sweep.report import rows, terminal_table, write_results
+
+        keep_heap()  # the ensemble path reports its cases here, and the results table is built here
+        withhold_pandas()  # pyarrow would import pandas (0.2 s, ~40 MB) to ask if our arrays are Series
+        try:
+            sweep_plan = plan(config)
+            prepare_outdir(outdir)
+            exit_after_stop()
+            run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm)
+        except InputError as exc:
+            _fail(exc)
     outcomes = run.outcomes
     results = rows(outcomes)  # the results table, made once for the files, the recording and the terminal
     try:

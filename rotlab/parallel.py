@@ -83,15 +83,19 @@ def context() -> multiprocessing.context.BaseContext:
 
 
 def run_tasks(fn: Callable[..., Any], tasks: Sequence[tuple], jobs: int, *, timeout: float | None = None,
-              retries: int = 0, on_end: Callable[[TaskEnd], None] | None = None, preload: Sequence[str] = RUN_MODULES) -> TaskRun:
+              retries: int = 0, on_end: Callable[[TaskEnd], None] | None = None, preload: Sequence[str] = RUN_MODULES,
+              warm: WarmWorkers | None = None) -> TaskRun:
     """Run ``fn(*task)`` for every task in at most ``jobs`` worker processes (module docstring).
     ``fn`` must be importable (module level) and should not raise: an exception it raises ends
     its task with the exception's text as the failure.  Each worker imports the ``preload``
     modules before its first task: a task's ``timeout`` runs from the moment its worker starts
-    it, so a worker's start-up (imports) never counts against a case."""
-    pool = _Pool(fn, max(1, min(jobs, len(tasks))), tuple(preload))
+    it, so a worker's start-up (imports) never counts against a case.  ``warm``: workers
+    started earlier for this ``fn`` and ``preload``, used before new ones are started."""
+    size = max(1, min(jobs, len(tasks)))
+    pool = _Pool(fn, size, tuple(preload), warm.take(fn, preload, size) if warm is not None else [])
     pending: deque[tuple[int, int]] = deque((i, 1) for i in range(len(tasks)))  # (task, attempt)
     ends: list[TaskEnd] = []
+    unbegun: set[int] = set()  # tasks whose worker died before it began them (said "started")
 
     def finish(end: TaskEnd) -> None:
         ends.append(end)
@@ -122,7 +126,10 @@ def run_tasks(fn: Callable[..., Any], tasks: Sequence[tuple], jobs: int, *, time
                     pending.extendleft(reversed(pool.discard(worker)))  # the tasks queued behind it never started
                     if event == "died":
                         how = f"worker died ({_exit_text(worker.process.exitcode)})"
-                        if attempt <= retries:
+                        if worker.started is None and index not in unbegun:  # died before it began the task (a warm
+                            unbegun.add(index)  # worker killed while it waited): once without an attempt's cost
+                            pending.appendleft((index, attempt))
+                        elif attempt <= retries:
                             pending.appendleft((index, attempt + 1))
                         else:
                             finish(TaskEnd(index, None, how + _attempts_text(attempt), attempt, seconds, pid))
@@ -246,15 +253,59 @@ class _Worker:
         self.conn.close()
 
 
+class WarmWorkers:
+    """Workers started before their tasks are known, so that their start-up (spawn, imports) runs
+    while the main process still imports and plans (a sweep: ~0.5 s).  ``run_tasks`` takes as
+    many as it needs when given the same ``fn`` and ``preload``; the others are stopped then,
+    and every one left is stopped when the ``with`` block ends (an error or Ctrl-C in the
+    planning included).  A warm worker that died waiting is replaced when its first task fails
+    to reach it."""
+
+    def __init__(self, fn: Callable[..., Any], count: int, preload: Sequence[str] = RUN_MODULES) -> None:
+        self.fn, self.preload = fn, tuple(preload)
+        self.workers: list[_Worker] = []
+        self.stopping: list[_Worker] = []
+        for _ in range(max(1, count)):
+            self.workers.append(_Worker(fn, self.preload))
+
+    def take(self, fn: Callable[..., Any], preload: Sequence[str], count: int) -> list[_Worker]:
+        """Up to ``count`` workers for ``fn`` and ``preload`` (none for another function); the
+        rest are told to stop."""
+        taken = self.workers[:count] if fn is self.fn and tuple(preload) == self.preload else []
+        self.release(keep=taken)
+        return taken
+
+    def release(self, keep: Sequence[_Worker] = ()) -> None:
+        """Tell every worker not in ``keep`` to stop (killed: none has a task); ``close`` waits for them."""
+        for worker in self.workers:
+            if worker not in keep:
+                worker.tell_to_stop(kill=True)
+                self.stopping.append(worker)
+        self.workers = []
+
+    def close(self) -> None:
+        self.release()
+        for worker in self.stopping:
+            worker.stop(kill=True)
+        self.stopping = []
+
+    def __enter__(self) -> WarmWorkers:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
 class _Pool:
     """Workers, each holding its running task and — while tasks are short — the next one, so
     that it starts that one as soon as it sends a result instead of waiting for the main process
     (a round trip of ~0.3 ms, as long as a short case itself).  A queued task has not started:
     a worker's death or time-out puts it back in the queue without costing it an attempt."""
 
-    def __init__(self, fn: Callable[..., Any], size: int, preload: tuple[str, ...]) -> None:
+    def __init__(self, fn: Callable[..., Any], size: int, preload: tuple[str, ...], ready: list[_Worker]) -> None:
         self.fn, self.size, self.preload = fn, size, preload
         self.workers: list[_Worker] = []
+        self.ready = list(ready)  # started already (``WarmWorkers``): used before new ones are started
         self.recent: deque[float] = deque(maxlen=8)  # seconds of the last tasks that finished
 
     def busy(self) -> bool:
@@ -275,7 +326,7 @@ class _Pool:
         ``PREFETCH_BYTES`` (sent while the worker writes a large result, both would block), or the
         worker turns out to have died (its pipe is closed; ``wait`` reports it)."""
         if len(self.workers) < self.size and all(w.queue for w in self.workers):
-            worker = _Worker(self.fn, self.preload)
+            worker = self.ready.pop(0) if self.ready else _Worker(self.fn, self.preload)
             self.workers.append(worker)
         else:
             worker = min(self.workers, key=lambda w: len(w.queue))
@@ -338,6 +389,8 @@ class _Pool:
         return False
 
     def close(self, kill: bool) -> None:
+        self.workers += self.ready  # warm workers no task reached
+        self.ready = []
         for worker in self.workers:  # all at once (each takes ~0.2 s to exit), then wait for each
             worker.tell_to_stop(kill)
         for worker in self.workers:

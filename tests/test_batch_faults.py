@@ -311,3 +311,40 @@ def test_large_tasks_and_results_do_not_deadlock_the_pool():
             "        print(len(run.ends), all(e.result == b'y' * (1 << 20) for e in run.ends))\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.stdout.split() == ["40", "True", "40", "True"], done.stdout + done.stderr
+
+
+def test_warm_workers_run_the_tasks_and_none_is_left_behind():
+    """``WarmWorkers`` started before the tasks are known: run_tasks uses them (the tasks run in
+    their processes), the one it does not need is stopped, a warm worker killed while it waited
+    is replaced, and workers started for another function are not used."""
+    from rotlab.parallel import WarmWorkers
+
+    with WarmWorkers(operator.call, 3, preload=()) as warm:
+        pids = [w.process.pid for w in warm.workers]
+        os.kill(pids[0], signal.SIGKILL)  # dies before any task reaches it
+        run = run_tasks(operator.call, [(math.sqrt, x) for x in (4.0, 9.0, 16.0, 25.0)], jobs=2, preload=(), warm=warm)
+        assert sorted(e.result for e in run.ends) == [2.0, 3.0, 4.0, 5.0] and all(e.failure is None for e in run.ends)
+        ran = {e.pid for e in run.ends}
+        assert pids[1] in ran and pids[0] not in ran  # the live warm one worked; the dead one's place went to a new worker
+    _assert_gone([p for p in (psutil.Process(pid) for pid in pids[1:] if psutil.pid_exists(pid))])
+    with WarmWorkers(operator.call, 2, preload=()) as other:
+        pids = [w.process.pid for w in other.workers]
+        run = run_tasks(operator.pos, [(1,)], jobs=2, preload=(), warm=other)
+        assert run.ends[0].result == 1 and run.ends[0].pid not in pids
+    assert not any(psutil.pid_exists(pid) and psutil.Process(pid).status() != psutil.STATUS_ZOMBIE for pid in pids)
+
+
+def test_a_bad_sweep_file_stops_the_workers_started_for_it(tmp_path):
+    """``rotlab sweep`` starts its workers before it validates the file: a bad file is still one
+    line and exit 2, quickly, and no worker outlives the command."""
+    config = tmp_path / "bad.toml"
+    config.write_text(QUICK + "[sweep]\nseed = 1\nsamples = 3\n[sweep.parameters]\n\"initial.omega[0]\" = { uniform = [0.1, 0.5] }\n"
+                      "[solver]\nrtol = -1\n", encoding="utf-8")
+    before = {p.pid for p in psutil.Process().children(recursive=True)}
+    started = time.monotonic()
+    done = subprocess.run([*rotlab_command(), "sweep", str(config), "-o", str(tmp_path / "out")], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2 and "rtol" in done.stderr and len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert time.monotonic() - started < 30.0
+    assert {p.pid for p in psutil.Process().children(recursive=True)} <= before
+    assert not [p for p in psutil.process_iter(["cmdline"]) if p.info["cmdline"] and str(config) in " ".join(p.info["cmdline"])]

@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 import signal
 import time
+from collections.abc import Iterable
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -19,13 +21,15 @@ import numpy as np
 from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError
-from rotlab.parallel import TaskRun, run_tasks
+from rotlab.parallel import TaskRun, WarmWorkers, run_tasks
 from rotlab.sweep.cases import Case, apply, check_path, expand
 from rotlab.trajectory import Trajectory, stack_runs
 
 COMPARISON_SAMPLES = 2000  # per case, in the comparison recording
 CHUNK_CASES = 64  # at most this many cases in a local worker's task (``chunk_size``)
 CHUNKS_PER_WORKER = 8  # ... and at least this many tasks per worker, for balance and a quick stop
+# what a sweep worker imports before its first task (not the recording writer: a case writes no file)
+WORKER_MODULES = ("rotlab.api", "rotlab.checks", "rotlab.sweep.runner")
 
 
 @dataclass
@@ -180,11 +184,12 @@ def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases:
 
 def ensemble_eligible(p: SweepPlan) -> bool:
     """Only initial conditions vary, every case is valid, and the method is fixed-step rk4."""
-    return (
-        p.base.solver.method == "rk4"
-        and all(key.startswith("initial.") for key in p.base.sweep.parameters)
-        and not any(isinstance(s, InputError) for s in p.scenarios)
-    )
+    return _ensemble_shape(p.base.solver.method, p.base.sweep.parameters) and not any(isinstance(s, InputError) for s in p.scenarios)
+
+
+def _ensemble_shape(method: object, paths: Iterable[str]) -> bool:
+    """rk4, and only initial conditions swept: what the ensemble kernel runs."""
+    return method == "rk4" and all(path.startswith("initial.") for path in paths)
 
 
 def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
@@ -234,19 +239,38 @@ def run_sweep(p: SweepPlan, jobs: int = 2, dask_address: str | None = None) -> t
     return run.outcomes, run.how
 
 
+def start_workers(config: Path, jobs: int) -> AbstractContextManager[WarmWorkers | None]:
+    """``jobs`` local sweep workers started now, for ``run_cases`` to use (a ``with`` block: the
+    ones it does not use are stopped at its end) — none when the file's sweep has the ensemble
+    kernel's shape (it runs in this process) or the file cannot be read (``plan`` says why)."""
+    try:
+        raw = read_toml(config)
+    except InputError:
+        return nullcontext()
+    sweep, solver = raw.get("sweep"), raw.get("solver")
+    method = solver.get("method") if isinstance(solver, dict) else None
+    parameters = sweep.get("parameters") if isinstance(sweep, dict) else None
+    if isinstance(parameters, dict) and _ensemble_shape(method, parameters):
+        return nullcontext()
+    return WarmWorkers(run_sweep_chunk, jobs, WORKER_MODULES)
+
+
 def chunk_size(cases: int, workers: int) -> int:
     """Cases per local task: up to ``CHUNK_CASES``, and ``CHUNKS_PER_WORKER`` tasks per worker."""
     return max(1, min(CHUNK_CASES, cases // (workers * CHUNKS_PER_WORKER)))
 
 
 def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, timeout: float | None = None,
-              retries: int = 0) -> SweepRun:
+              retries: int = 0, warm: WarmWorkers | None = None) -> SweepRun:
     """Every case: the ensemble kernel when eligible, else local worker processes or the Dask
     cluster at ``dask_address``.  Local workers take the cases in chunks (``chunk_size``),
     validate and run them and report them together; a chunk whose worker died is run again one
     case per task (with ``retries``: the chunk's attempt, which cannot name the case that was
     running, is not counted), so a case that kills its worker costs that case only.  With a per-case
-    ``timeout``, one case per task from the start (its clock is the case's)."""
+    ``timeout``, one case per task from the start (its clock is the case's).  ``warm``: local
+    workers started for ``run_sweep_chunk`` while the sweep was planned (``start_workers``)."""
+    if warm is not None and (dask_address is not None or (timeout is None and ensemble_eligible(p))):
+        warm.release()  # the cases run elsewhere: the warm workers would only take the cores
     if dask_address is None and timeout is None and ensemble_eligible(p):
         started = time.perf_counter()
         outcomes = run_ensemble(p)
@@ -265,11 +289,12 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     per_worker = -(-len(p.cases) // workers) if timeout is None else 0
     chunks = [p.cases[i:i + size] for i in range(0, len(p.cases), size)]
     run = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, per_worker) for chunk in chunks], jobs,
-                    timeout=timeout, retries=retries if size == 1 else 0)
+                    timeout=timeout, retries=retries if size == 1 else 0, preload=WORKER_MODULES, warm=warm)
     outcomes, again = collect_outcomes(chunks, run)
     stopped = run.stopped
     if size > 1 and again and stopped is None:  # a chunk's worker died: its cases one by one
-        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], per_worker) for case in again], jobs, retries=retries)
+        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], per_worker) for case in again], jobs, retries=retries,
+                          preload=WORKER_MODULES)
         outcomes.update(collect_outcomes([[case] for case in again], rerun)[0])
         stopped = rerun.stopped
     how = f"{workers} local worker process{'es' if workers > 1 else ''}" + (f", {size} cases a task" if size > 1 else "")
