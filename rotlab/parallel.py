@@ -6,7 +6,8 @@ Workers are ``spawn``ed: forking a process that already runs threads (numba's pa
 Rerun's writer) is unsafe, and a spawned worker is a child of the main process, so it can ask the
 kernel to kill it when the main process dies (a ``forkserver`` child is the forkserver's, which
 outlives a killed main process while any worker holds its pipe).  Each worker imports rotlab
-once (``preload``) and then runs task after task.
+once (``preload``) and then runs task after task.  ``WarmWorkers`` starts them before the
+tasks are known, so that their start-up overlaps the main process's own (``rotlab sweep``).
 
 ``run_tasks`` hands each worker one task over its own pipe — and, while tasks are short (under
 ``PREFETCH_BELOW``), the next one too, which the worker starts without waiting for the main
@@ -15,7 +16,9 @@ process — and waits on every busy worker's pipe and process sentinel at once:
 * a result arrives → reported through ``on_end`` at once (a line per finished case);
 * the worker process dies (``kill -9``, out of memory, a crash in compiled code) → that task
   ends as ``worker died (…)`` (or is retried, ``retries`` times), the task queued behind it (not
-  started) goes back to the queue, a fresh worker takes its place and every other task goes on;
+  started) goes back to the queue, a fresh worker takes its place and every other task goes on
+  (a worker that died before it began its task, e.g. killed while it waited, costs that task
+  nothing, once: it goes back to the queue too);
 * a task exceeds ``timeout`` seconds → its worker is killed, the task ends as ``timed out``;
 * SIGINT or SIGTERM in the main process → pending tasks are cancelled, workers terminated
   (none is left behind), and ``run_tasks`` returns what finished with ``stopped`` set to the
