@@ -138,7 +138,7 @@ class Trajectory:
 
     @cached_property
     def _max_drift(self) -> dict[str, float]:
-        return {name: float(np.max(np.abs(v))) if v.size else 0.0 for name, v in self.invariants.items()}
+        return {name: float(value) for name, value in largest_drifts(self.invariants).items()}
 
     @property
     def ok(self) -> bool:
@@ -232,7 +232,12 @@ class Runs:
 
     def max_drift(self) -> dict[str, np.ndarray]:
         """max |drift| over each run, per invariant: (B,) each (0 for runs without samples)."""
-        return {name: np.max(np.abs(v), axis=-1) if v.shape[-1] else np.zeros(v.shape[0]) for name, v in self.drifts.items()}
+        return largest_drifts(self.drifts)
+
+
+def largest_drifts(drifts: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """max |drift| over the samples (last axis), per invariant; 0 without samples."""
+    return {name: np.max(np.abs(v), axis=-1) if v.shape[-1] else np.zeros(v.shape[:-1]) for name, v in drifts.items()}
 
 
 def stack_runs(trajectories: list[Trajectory]) -> Runs:

@@ -70,10 +70,9 @@ def kernel_constants(scene: Scene) -> tuple:
     has_space, has_work).  Several forces, space-frame loads and expressions need the products
     (expressions: their γ, Rᵀ M)."""
     loads = scene.loads
-    forces = active_forces(loads)
-    lever_force = lone_force(scene)
+    forces, has_space = active_forces(loads), _has_space(loads)
+    lever_force = _lone_force(loads, forces, has_space)
     c0, T = kernel.force_map(forces[:0] if lever_force is not None else forces)
-    has_space = _has_space(loads)
     flags = ((len(forces) > 0 and lever_force is None) or has_space or loads.expressions is not None, has_space, has_nonconservative(loads))
     return c0, T, lever_force, flags
 
@@ -81,9 +80,11 @@ def kernel_constants(scene: Scene) -> tuple:
 def lone_force(scene: Scene) -> np.ndarray | None:
     """[p, F] (2 × 3) when one constant force acts and nothing else in space (no space-frame
     torques, no expressions): the kernel then takes its torque through γ = Rᵀ F; else None."""
-    loads = scene.loads
-    forces = active_forces(loads)
-    if len(forces) != 1 or _has_space(loads) or loads.expressions is not None:
+    return _lone_force(scene.loads, active_forces(scene.loads), _has_space(scene.loads))
+
+
+def _lone_force(loads, forces: np.ndarray, has_space: bool) -> np.ndarray | None:
+    if len(forces) != 1 or has_space or loads.expressions is not None:
         return None
     return np.array(forces[0].reshape(2, 3))
 
