@@ -23,5 +23,6 @@ def __getattr__(name: str):  # lazy: `import rotlab` stays light for the CLI
     if name in _LAZY:
         import importlib
 
-        return getattr(importlib.import_module(_LAZY[name]), name)
+        value = globals()[name] = getattr(importlib.import_module(_LAZY[name]), name)  # found directly from now on
+        return value
     raise AttributeError(f"module 'rotlab' has no attribute '{name}'")

@@ -112,3 +112,12 @@ def test_editing_a_series_in_place_changes_no_other_series():
         edited.L_space[:] = 0.0
         assert edited.max_drift() == reference.max_drift()
     assert np.array_equal(fresh.omega, rotlab.simulate(CONFIGS / "general.toml", duration=0.5).omega)
+
+
+def test_the_packages_lazy_names_are_looked_up_once():
+    """``rotlab.simulate`` and the other lazy names import their module on first use and are
+    plain attributes from then on (a loop over ``rotlab.simulate`` paid an import look-up a call)."""
+    import rotlab.api
+
+    assert rotlab.simulate is rotlab.api.simulate and rotlab.load is rotlab.api.load
+    assert vars(rotlab)["simulate"] is rotlab.api.simulate
