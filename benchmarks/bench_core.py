@@ -48,7 +48,7 @@ def main() -> None:
     out = np.empty((t.size, 8))
 
     def rk4_run():
-        y = initial_state(scene.q0, scene.omega0)
+        y = initial_state(scene)
         rk4.rk4_advance(y, t, out, 1, 1000, n_steps, model)
 
     started = time.perf_counter()
@@ -61,7 +61,7 @@ def main() -> None:
     counters = np.zeros(3, dtype=np.int64)
 
     def dop_run():
-        y = initial_state(scene.q0, scene.omega0)
+        y = initial_state(scene)
         counters[:] = 0
         dop853.dop853_advance(y, 0.0, 0.0, t, out, 1, 10.0, 1e-10, 1e-12, 10**9, model, counters)
 

@@ -56,7 +56,7 @@ def ns_per_step(scene, kernel, extra, steps: int, repeats: int) -> tuple[float, 
     substeps = steps // 1000
 
     def run():
-        y = initial_state(scene.q0, scene.omega0)
+        y = initial_state(scene)
         kernel(y, t, out, 1, substeps, 10 * steps, model, *extra)
 
     run()  # compile (or load from the cache)

@@ -143,7 +143,7 @@ def test_splitting_is_time_reversible(base, order):
     """n = 1000 steps forward with h, then n with −h: back at the initial state to 1e-12."""
     scene = build_scene(scenario(**base, time={"end": 1.0}))
     model = scene.model
-    y0 = initial_state(scene.q0, scene.omega0)
+    y0 = initial_state(scene)
     y = y0.copy()
     out = np.empty((2, 8))
     status, _, steps = splitting_advance(y, np.array([0.0, 5.0]), out, 1, 1000, 10**6, model, order)

@@ -654,7 +654,7 @@ def energy_windows(options: Options, steps: int = 10_000_000, windows: int = 10,
     for name, order in runs:
         method = get_method(name)
         extra = method.extra_args(scene, order if order is not None else method.order_of_accuracy)
-        y = initial_state(scene.q0, scene.omega0)
+        y = initial_state(scene)
         h0 = 0.5 * float(np.sum(moments * y[4:7] ** 2))
         maxima = []
         started = time.perf_counter()

@@ -26,7 +26,7 @@ class DOP853:
         return None
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
-        y = initial_state(scene.q0, scene.omega0)
+        y = initial_state(scene)
         model = scene.model
         counters = np.zeros(3, dtype=np.int64)
         clock = {"t": float(t[0]), "h": 0.0}

@@ -100,7 +100,7 @@ class FixedStepMethod:
     def _probe(self, scene: Scene, t0: float, span: float, steps: int, order: int) -> np.ndarray:
         times = np.array([t0, t0 + span])
         out = np.empty((2, 8))
-        y = initial_state(scene.q0, scene.omega0)
+        y = initial_state(scene)
         self.kernel(y, times, out, 1, steps, steps, scene.model, *self.kernel_args(scene, order))
         return y
 
@@ -120,7 +120,7 @@ class FixedStepMethod:
                 f"{self.name} needs {needed:.3g} steps of {interval / substeps:.3g} s for this span, beyond max_steps = "
                 f"{settings.max_steps:,}: raise solver.max_steps, give a longer solver.step or looser rtol, or use method = \"auto\"",
             )
-        y = initial_state(scene.q0, scene.omega0)
+        y = initial_state(scene)
         model, extra = scene.model, self.kernel_args(scene, order)
         advance = _long_samples(self.kernel, y, substeps, (model, *extra)) if substeps > CHUNK_STEPS else (
             lambda times, out, i, budget: self.kernel(y, times, out, i, substeps, budget, model, *extra))

@@ -22,13 +22,16 @@ import contextlib
 import contextvars
 import time
 from dataclasses import dataclass
-from typing import Callable, Iterator, Protocol
+from typing import TYPE_CHECKING, Callable, Iterator, Protocol
 
 import numpy as np
 
 from rotlab import interrupts
 from rotlab.core.dynamics import STATE_SIZE
 from rotlab.methods.base import ProgressCallback, Solution
+
+if TYPE_CHECKING:
+    from rotlab.scene.scene import Scene
 
 # a chunk of kernel work: advance(times, out, i, budget) → (status, next local sample index, steps taken)
 Chunk = Callable[[np.ndarray, np.ndarray, int, int], tuple[int, int, int]]
@@ -96,11 +99,9 @@ class SampleTimes:
         return self.end if k == self.n - 1 else k * self.step + self.start
 
 
-def initial_state(q0: np.ndarray, omega0: np.ndarray) -> np.ndarray:
-    y = np.zeros(STATE_SIZE)
-    y[0:4] = q0
-    y[4:7] = omega0
-    return y
+def initial_state(scene: Scene) -> np.ndarray:
+    """The scene's state at t0, a copy the kernel may advance in place."""
+    return scene.state0.copy()
 
 
 def timeout_message(control: RunControl, t_now: float) -> str:

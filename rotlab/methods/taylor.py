@@ -45,7 +45,7 @@ class Taylor:
             raise InputError("solver.order", f"taylor takes orders {MIN_ORDER} to {MAX_ORDER}, not {order}")
         c0, T, lever_force, flags = scene.shared("taylor", lambda: kernel_constants(scene))
         model = scene.model
-        y = initial_state(scene.q0, scene.omega0)
+        y = initial_state(scene)
         counters = np.zeros(1, dtype=np.int64)
         clock = {"t": float(t[0])}
 

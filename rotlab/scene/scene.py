@@ -18,6 +18,7 @@ import numpy as np
 from rotlab import invariants as invariant_table
 from rotlab.config import models as cfg
 from rotlab.core import quaternion as quat
+from rotlab.core.state import LAMBDA, OMEGA, STATE_SIZE
 from rotlab.core.torques import EX_RATE
 from rotlab.scene import inertia
 from rotlab.scene.loads import (
@@ -81,6 +82,15 @@ class Scene:
                 _SHARED.pop(next(iter(_SHARED)))
             found = _SHARED[(key, content)] = self.cached(key, build)
         return found
+
+    @cached_property
+    def state0(self) -> np.ndarray:
+        """The state at t0 in ``rotlab.core.state``'s layout: Λ, ω (principal frame), W = 0.
+        Read-only: a run starts from a copy (``rotlab.methods.stepping.initial_state``)."""
+        y = np.zeros(STATE_SIZE)
+        y[LAMBDA], y[OMEGA] = self.q0, self.omega0
+        y.flags.writeable = False
+        return y
 
     @cached_property
     def content_key(self) -> tuple | None:

@@ -209,7 +209,7 @@ def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
     method = get_method("rk4")
     order = method.order(settings)
     substeps = max(1, math.ceil(float(t[1] - t[0]) / min(method.step(sc, t, settings, order) for sc in scenes) - 1e-9))
-    y0 = np.array([initial_state(sc.q0, sc.omega0) for sc in scenes])
+    y0 = np.array([initial_state(sc) for sc in scenes])
     out = np.empty((len(scenes), t.shape[0], 8))
     status = np.zeros(len(scenes), dtype=np.int64)
     valid = np.zeros(len(scenes), dtype=np.int64)
