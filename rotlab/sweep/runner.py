@@ -7,6 +7,7 @@ runs them one after the other and reports them together, the runs of one body an
 from __future__ import annotations
 
 import math
+import os
 import signal
 import time
 from collections.abc import Iterable
@@ -240,9 +241,11 @@ def run_sweep(p: SweepPlan, jobs: int = 2, dask_address: str | None = None) -> t
 
 
 def start_workers(config: Path, jobs: int) -> AbstractContextManager[WarmWorkers | None]:
-    """``jobs`` local sweep workers started now, for ``run_cases`` to use (a ``with`` block: the
-    ones it does not use are stopped at its end) — none when the file's sweep has the ensemble
-    kernel's shape (it runs in this process) or the file cannot be read (``plan`` says why)."""
+    """``jobs`` local sweep workers (at most one per core this process may use) started now, for
+    ``run_cases`` to use (a ``with`` block: the ones it does not use are stopped at its end) —
+    none when the file's sweep has the ensemble kernel's shape (it runs in this process) or the
+    file cannot be read (``plan`` says why).  More workers than cores start when the cases are
+    known, as before."""
     try:
         raw = read_toml(config)
     except InputError:
@@ -252,7 +255,8 @@ def start_workers(config: Path, jobs: int) -> AbstractContextManager[WarmWorkers
     parameters = sweep.get("parameters") if isinstance(sweep, dict) else None
     if isinstance(parameters, dict) and _ensemble_shape(method, parameters):
         return nullcontext()
-    return WarmWorkers(run_sweep_chunk, jobs, WORKER_MODULES)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return WarmWorkers(run_sweep_chunk, min(jobs, cores), WORKER_MODULES)
 
 
 def chunk_size(cases: int, workers: int) -> int:
