@@ -10,7 +10,8 @@ a child process, beside the parts of one case measured in this process:
   worker's chunk of cases at once (``outcomes_of``), per case;
 * round trip: a worker's task that does nothing, handed over and answered (IPC);
 * sweep: the whole `rotlab sweep` wall time (start-up, validation, workers, results files and
-  the comparison recording included) divided by the number of cases.
+  the comparison recording included) divided by the number of cases; with psutil installed,
+  its peak resident memory and that of its largest worker (sampled every 50 ms).
 
     python benchmarks/bench_sweep.py [--cases 2000] [--jobs 1 2]
 """
@@ -55,6 +56,28 @@ def _median_us(fn, items) -> float:
     return statistics.median(times) * 1e6
 
 
+def _run_sampling_memory(command: list[str]) -> tuple[float, float] | None:
+    """Run ``command``; with psutil, its peak resident memory and its workers' largest, in MB,
+    sampled every 50 ms (None without psutil)."""
+    try:
+        import psutil
+    except ImportError:
+        subprocess.run(command, check=True, capture_output=True)
+        return None
+    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    process, main_peak, worker_peak = psutil.Process(child.pid), 0, 0
+    while child.poll() is None:
+        try:
+            main_peak = max(main_peak, process.memory_info().rss)
+            worker_peak = max([worker_peak, *(c.memory_info().rss for c in process.children(recursive=True))])
+        except psutil.Error:  # a worker that just left
+            pass
+        time.sleep(0.05)
+    if child.returncode:
+        raise subprocess.CalledProcessError(child.returncode, command, stderr=child.stderr.read())
+    return main_peak / 2**20, worker_peak / 2**20
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--cases", type=int, default=2000)
@@ -73,10 +96,11 @@ def main() -> None:
         config = Path(tmp) / "free_sweep.toml"
         config.write_text(CONFIG.format(cases=args.cases), encoding="utf-8")
         sweep = {}
+        peaks = {}
         for jobs in args.jobs:
             started = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "rotlab", "sweep", str(config), "-o", str(Path(tmp) / f"out{jobs}"), "-j", str(jobs)],
-                           check=True, capture_output=True)
+            command = [sys.executable, "-m", "rotlab", "sweep", str(config), "-o", str(Path(tmp) / f"out{jobs}"), "-j", str(jobs)]
+            peaks[jobs] = _run_sampling_memory(command)
             sweep[jobs] = (time.perf_counter() - started) / args.cases * 1e6
 
         p = plan(config)
@@ -111,6 +135,9 @@ def main() -> None:
     rows += [(f"rotlab sweep -j {jobs}, wall / cases", us) for jobs, us in sweep.items()]
     for name, us in rows:
         print(f"   {name:44s} {us:8.0f}   {us / solve:8.1f}")
+    for jobs, peak in peaks.items():
+        if peak is not None:
+            print(f"   rotlab sweep -j {jobs}: peak resident memory {peak[0]:.0f} MB, of a worker {peak[1]:.0f} MB")
 
 
 if __name__ == "__main__":
