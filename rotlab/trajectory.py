@@ -16,8 +16,8 @@ import numpy as np
 
 from rotlab import invariants
 from rotlab.core import quaternion as quat
-from rotlab.rows import row_dot, row_norm, unit_rows
 from rotlab.methods.base import Solution
+from rotlab.rows import row_dot, row_norm, unit_rows
 from rotlab.scene.scene import Scene
 
 Result = TypeVar("Result")
