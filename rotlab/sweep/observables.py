@@ -19,6 +19,7 @@ import numpy as np
 from rotlab.checks import AXES, flip_period
 from rotlab.core import quaternion as quat
 from rotlab.recording.geometry import reference_body_axes
+from rotlab.rows import row_norm, unit_rows
 from rotlab.trajectory import Runs
 
 NOT_GIVEN = -1  # in ``flip_axes``: no [checks] flip_period axis, take the largest |ω(t0)| component
@@ -47,9 +48,9 @@ def reference_axes(runs: Runs) -> tuple[np.ndarray, np.ndarray]:
     if scene.field_direction is not None:
         d = np.broadcast_to(scene.field_direction, e.shape)
     else:
-        norm = np.linalg.norm(runs.L_space0, axis=-1, keepdims=True)
+        norm = row_norm(runs.L_space0)[:, None]
         d = np.where(norm > 0.0, runs.L_space0 / np.where(norm > 0.0, norm, 1.0), np.array([0.0, 0.0, 1.0]))
-    return e / np.linalg.norm(e, axis=-1, keepdims=True), d
+    return unit_rows(e), d
 
 
 def nutation(runs: Runs) -> np.ndarray:

@@ -1,7 +1,8 @@
 """Sweep outputs: a results table (CSV and Parquet) and a terminal table.  One row per case:
-its parameters, status, method, steps, wall time (``seconds``: this case's own run and its share of
-the report made for its worker's chunk of cases; empty when the cases ran together in the ensemble kernel), the observables of ``rotlab.sweep.observables`` and
-the max drift of each invariant.  The recording that compares the cases is written by
+its parameters, status, method, steps, wall time (``seconds``: this case's own run and its share
+of the report made for its worker's chunk of cases; empty when the cases ran together in the
+ensemble kernel), the observables of ``rotlab.sweep.observables`` and the max drift of each
+invariant.  The recording that compares the cases is written by
 ``rotlab.recording.sweep``."""
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from rotlab.sweep.runner import CaseOutcome
 
 
 Table = tuple[list[str], list[list[object]]]  # the results table: header, rows
+TERMINAL_ROWS = 50  # a larger sweep's terminal table shows only the cases that did not pass
 
 
 def rows(outcomes: list[CaseOutcome]) -> Table:
@@ -91,9 +93,6 @@ def terminal_table(outcomes: list[CaseOutcome], how: str, results: Table) -> str
         lines.append(f"(and {len(failing) - TERMINAL_ROWS:,} more cases that did not pass: see results.csv)")
     lines.append(f"{passing} passed, {len(failing)} failed")
     return "\n".join(lines)
-
-
-TERMINAL_ROWS = 50  # a larger sweep's terminal table shows only the cases that did not pass
 
 
 def _fmt(value: object) -> str:

@@ -273,9 +273,10 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     running, is not counted), so a case that kills its worker costs that case only.  With a per-case
     ``timeout``, one case per task from the start (its clock is the case's).  ``warm``: local
     workers started for ``run_sweep_chunk`` while the sweep was planned (``start_workers``)."""
-    if warm is not None and (dask_address is not None or (timeout is None and ensemble_eligible(p))):
+    ensemble = dask_address is None and timeout is None and ensemble_eligible(p)
+    if warm is not None and (ensemble or dask_address is not None):
         warm.release()  # the cases run elsewhere: the warm workers would only take the cores
-    if dask_address is None and timeout is None and ensemble_eligible(p):
+    if ensemble:
         started = time.perf_counter()
         outcomes = run_ensemble(p)
         return SweepRun(outcomes, f"ensemble kernel (numba parallel over bodies; {time.perf_counter() - started:.3g} s for all cases)")
