@@ -2,12 +2,17 @@
 over 10 s, method = "auto", rtol 1e-10; ω₀ drawn per case), run end to end by `rotlab sweep` in
 a child process, beside the parts of one case measured in this process:
 
-* solve: ``Method.solve`` of the case's scene with the settings auto chose (the integration);
+* solve: ``Method.solve`` of the case's scene with the method and settings the sweep runs it with
+  (the integration);
 * validate: the case's scenario from the file's document and its values (``case_scenario``,
   done by the worker that runs it);
 * simulate: ``rotlab.simulate(scenario)`` (scene, auto's choice, solve, trajectory);
 * report: the sweep's per-case report (checks, observables, decimated series), made for a
   worker's chunk of cases at once (``outcomes_of``), per case;
+* worker: a worker's whole task for a chunk of new cases (validate, run, report:
+  ``run_sweep_chunk``), per case, with the sweep's one method (``shared_choice``: only initial
+  states vary) when the code measured has it, and the time that choice takes in the main
+  process, per case;
 * round trip: a worker's task that does nothing, handed over and answered (IPC);
 * sweep: the whole `rotlab sweep` wall time (start-up, validation, workers, results files and
   the comparison recording included) divided by the number of cases; with psutil installed,
@@ -88,9 +93,15 @@ def main() -> None:
     from rotlab.api import _plan
     from rotlab.heap import keep_heap
     from rotlab.methods.choose import expect_runs
+    from rotlab.methods.registry import get_method
     from rotlab.parallel import run_tasks
     from rotlab.scene.scene import build_scene
-    from rotlab.sweep.runner import CHUNK_CASES, case_scenario, outcomes_of, plan
+    from rotlab.sweep.runner import CHUNK_CASES, case_scenario, outcomes_of, plan, run_sweep_chunk
+
+    try:
+        from rotlab.sweep.shared_choice import shared_choice
+    except ImportError:  # earlier code: each case chooses its own method
+        shared_choice = None
 
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "free_sweep.toml"
@@ -108,11 +119,17 @@ def main() -> None:
         keep_heap()  # as a worker does (rotlab.heap)
         for scenario in p.scenarios[-20:]:
             rotlab.simulate(scenario)  # kernels loaded
+        chosen_at = time.perf_counter()
+        choice = () if shared_choice is None else (shared_choice(p),)
+        choosing = (time.perf_counter() - chosen_at) / len(p.cases) * 1e6
         third = min(len(p.scenarios), 1500) // 3  # three sets of cases, none seen before by auto's cache
         planned = []
         for scenario in p.scenarios[:third]:
             scene = build_scene(scenario)
-            chosen, _, settings, t = _plan(scene)
+            if choice:  # what the sweep integrates: the one method for all cases
+                chosen, settings, t = get_method(choice[0].method), choice[0].settings, scenario.time.sample_times()
+            else:
+                chosen, _, settings, t = _plan(scene)
             planned.append((chosen, scene, t, settings))
         methods = sorted({chosen.name for chosen, *_ in planned})
         solve = _median_us(lambda item: item[0].solve(item[1], item[2], item[3], None), planned)
@@ -121,6 +138,9 @@ def main() -> None:
         runs = [(case, rotlab.simulate(scenario), 0.0) for case, scenario in zip(p.cases[2 * third:3 * third], p.scenarios[2 * third:3 * third])]
         chunks = [runs[k:k + CHUNK_CASES] for k in range(0, len(runs), CHUNK_CASES)]
         report = _median_us(outcomes_of, chunks) / CHUNK_CASES
+        fresh = p.cases[3 * third:]  # cases auto's cache has not seen
+        tasks = [fresh[k:k + CHUNK_CASES] for k in range(0, min(len(fresh), 20 * CHUNK_CASES), CHUNK_CASES)]
+        worker = _median_us(lambda cases: run_sweep_chunk(p.raw, p.base, p.source, cases, args.cases, *choice), tasks) / CHUNK_CASES
         stamps: list[float] = []
         begun = time.perf_counter()
         run_tasks(operator.pos, [(1,)] * 2000, 1, preload=(), on_end=lambda end: stamps.append(time.perf_counter() - begun))
@@ -131,7 +151,10 @@ def main() -> None:
     print(f"   {'part':44s} {'µs':>8s}   {'× solve':>8s}")
     rows = [("solve (Method.solve, the integration)", solve), ("validate (the case's scenario, in its worker)", validate),
             ("simulate (scene, choice, solve, trajectory)", simulate),
-            (f"report ({CHUNK_CASES} cases at once), per case", report), ("round trip of an empty task (1 worker)", round_trip)]
+            (f"report ({CHUNK_CASES} cases at once), per case", report),
+            (f"worker's task ({CHUNK_CASES} cases), per case", worker),
+            ("the sweep's one choice (main process), per case", choosing),
+            ("round trip of an empty task (1 worker)", round_trip)]
     rows += [(f"rotlab sweep -j {jobs}, wall / cases", us) for jobs, us in sweep.items()]
     for name, us in rows:
         print(f"   {name:44s} {us:8.0f}   {us / solve:8.1f}")

@@ -22,8 +22,13 @@ from rotlab.scene.scene import Scene, build_scene
 from rotlab.trajectory import RunStats, RunSummary, Trajectory, build_trajectory
 
 if TYPE_CHECKING:
+    import numpy as np
+
+    from rotlab.methods.base import Method
     from rotlab.progress import StreamProgress
     from rotlab.recording.sink import RecordingSink
+
+Plan = tuple["Method", str, Settings, "np.ndarray"]  # (method, why it runs, its settings, the sample times)
 
 
 def load(
@@ -81,9 +86,11 @@ def save(path: str | Path, traj: Trajectory) -> Path:
     return write_recording(traj, path)
 
 
-def run_scene(scene: Scene, progress: ProgressCallback | None = None) -> Trajectory:
-    """Run ``scene`` whole: every sample in memory (the Python API)."""
-    chosen, reason, settings, t = _plan(scene)
+def run_scene(scene: Scene, progress: ProgressCallback | None = None, plan: Plan | None = None) -> Trajectory:
+    """Run ``scene`` whole: every sample in memory (the Python API).  ``plan``: the method, why,
+    settings and sample times decided already (a sweep's one choice for all its cases), else
+    ``_plan``'s."""
+    chosen, reason, settings, t = _plan(scene) if plan is None else plan
     with compile_clock() as compiling:  # numba compile / cache load, reported apart from integration
         started = time.perf_counter()
         solution = chosen.solve(scene, t, settings, progress)
@@ -178,13 +185,13 @@ def record(scene: Scene, sink: RecordingSink, progress: StreamProgress | None = 
     return run, writing, final
 
 
-def _plan(scene: Scene, lazy_times: bool = False):
+def _plan(scene: Scene, lazy_times: bool = False) -> Plan:
     """(method, why, settings, sample times); ``lazy_times``: a ``SampleTimes`` (no array)."""
     from rotlab.methods.stepping import SampleTimes
 
     s, time_ = scene.scenario.solver, scene.scenario.time
     t = SampleTimes(time_.start, time_.end, time_.sample_count) if lazy_times else time_.sample_times()
-    settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps, order=s.order)
+    settings = Settings.of(s)
     chosen, reason, settings = choose_method(scene, s.method, settings, t)
     return chosen, reason, settings, t
 

@@ -483,7 +483,7 @@ def call_overhead(options: Options, configs: list[Path] | None = None, samples: 
         scene = build_scene(sc)
         t = sc.time.sample_times()
         s = sc.solver
-        settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps, order=s.order)
+        settings = Settings.of(s)
         method, _, chosen = choose_method(scene, s.method, settings, t)  # the config's method (sweep_flip.toml: rk4)
         rotlab.simulate(sc)  # warm-up: kernels loaded, lazy imports done
 

@@ -27,6 +27,11 @@ class Settings:
     max_steps: int = 200_000_000
     order: int | None = None  # composition / method order where a method offers several
 
+    @classmethod
+    def of(cls, solver: object) -> Settings:
+        """The settings a scenario's ``[solver]`` table gives (``rotlab.config.models.Solver``)."""
+        return cls(step=solver.step, rtol=solver.rtol, atol=solver.atol, max_steps=solver.max_steps, order=solver.order)
+
 
 @dataclass
 class Solution:

@@ -30,6 +30,7 @@ pays for it once (a look-up: a few µs).
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 
 import numpy as np
 
@@ -101,18 +102,35 @@ def _choice_key(scene: Scene, settings: Settings, t: np.ndarray) -> tuple | None
             settings.order, settings.max_steps, t.shape[0], float(t[0]), float(t[-1]))
 
 
-def work_of(scene: Scene, t: np.ndarray) -> cost.Work:
-    """The cost model's view of a run: span, samples, rate scale, breakpoints, load kind, floor."""
+def work_of(scene: Scene, t: np.ndarray, omega0: np.ndarray | None = None) -> cost.Work:
+    """The cost model's view of a run: span, samples, rate scale, breakpoints, load kind, floor.
+    ``omega0``: the run starts with this ω (principal frame) instead of the scene's."""
     span = float(t[-1] - t[0])
-    rate = scene.rate_scale or 1.0 / max(span, 1e-300)
+    omega = (scene.omega0 if omega0 is None else omega0).tolist()
+    rate = scene.rate_from(omega) or 1.0 / max(span, 1e-300)
     loads = "loads" if scene.has_work else ("forces" if scene.has_potential else "free")
     floor, amplification = 0.0, 1.0
     if scene.kind == TORQUE_FREE:
-        floor, amplification = cost.separatrix(tuple(scene.moments.tolist()), tuple(scene.omega0.tolist()), span, rate)
+        floor, amplification = cost.separatrix(tuple(scene.moments.tolist()), tuple(omega), span, rate)
     breaks = scene.shared("breakpoints", lambda: _breakpoints(scene))
     inside = int(np.count_nonzero((breaks > min(t[0], t[-1])) & (breaks < max(t[0], t[-1])))) if breaks.size else 0
     return cost.Work(span=abs(span), samples=int(t.shape[0]), rate=rate, breakpoints=inside, loads=loads, floor=floor,
                      amplification=amplification)
+
+
+def worst_work(scene: Scene, t: np.ndarray, omegas: np.ndarray) -> cost.Work:
+    """``work_of`` for the most demanding of the runs of ``scene`` from each initial ω in
+    ``omegas`` (rows, principal frame): the largest rate scale, error floor and amplification."""
+    work = work_of(scene, t, omegas[0])
+    span = float(t[-1] - t[0])
+    rates = [scene.rate_from(omega) or 1.0 / max(span, 1e-300) for omega in omegas.tolist()]
+    floor, amplification = work.floor, work.amplification
+    if scene.kind == TORQUE_FREE:
+        moments = tuple(scene.moments.tolist())
+        for omega, rate in zip(omegas.tolist(), rates):
+            f, a = cost.separatrix(moments, omega, span, rate)
+            floor, amplification = max(floor, f), max(amplification, a)
+    return replace(work, rate=max(rates), floor=floor, amplification=amplification)
 
 
 def _breakpoints(scene: Scene) -> np.ndarray:
@@ -218,15 +236,16 @@ def _load_groups(loads) -> tuple | None:
 _MODEL_TYPES: dict[tuple, object] = {}  # load groups -> numba's type of the model (numba.typeof costs ~50 µs)
 
 
-def with_first_use(estimates: list[cost.Estimate], loaded: dict[str, bool]) -> list[cost.Estimate]:
+def with_first_use(estimates: list[cost.Estimate], loaded: dict[str, bool], fresh: int = 0) -> list[cost.Estimate]:
     """Add the one-time cost of loading each stepping method's kernel in this process, shared
     among the runs the process is expected to make: after k runs, ~k more (a sweep or a loop over
     ``simulate`` soon makes loading the kernel worth it; a single ``rotlab run`` does not).
-    ``loaded``: method → its kernel is loaded for the scene (``kernels_loaded``)."""
+    ``loaded``: method → its kernel is loaded for the scene (``kernels_loaded``).  ``fresh``: the
+    runs are made by a new process (a sweep worker), ``fresh`` of them, numba not yet used there."""
     if all(loaded.values()):
         return estimates
-    ready = _numba_ready()
-    share = 1.0 / _expected_runs()
+    ready = _numba_ready() and not fresh
+    share = 1.0 / (fresh or _expected_runs())
     extra = {name: 0.0 if is_loaded else share * cost.first_use_seconds(name, ready) for name, is_loaded in loaded.items()}
     return [e if loaded[e.method] else e._replace(seconds=e.seconds + extra[e.method]) for e in estimates]
 
@@ -255,18 +274,37 @@ def auto_choice(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[Method
     return get_method(name), why, chosen
 
 
-def _auto(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[str, str, Settings]:
+def ensemble_choice(scene: Scene, requested: str, settings: Settings, t: np.ndarray, omegas: np.ndarray,
+                    runs: int) -> tuple[Method, str, Settings]:
+    """One choice for runs of ``scene``'s body, loads and settings from each initial ω in
+    ``omegas`` (rows, principal frame; ``scene``: the run whose spin is fastest), made for new
+    processes that make ``runs`` runs each (a sweep's workers): ``auto``'s choice for the most
+    demanding of them, i.e. for the fastest spin and the largest error floor and amplification
+    near the separatrix among them, so that each run is expected to meet rtol with it.  The
+    method's cost is that of the fastest run; slower runs take fewer steps of an adaptive method
+    (``taylor``) and the same step of a fixed-step one (``dmv``)."""
+    if requested != "auto" or settings.step is not None or not len(omegas):
+        return choose_method(scene, requested, settings, t)
+    worst = worst_work(scene, t, omegas)
+    name, why, chosen = _auto(scene, settings, t, worst, fresh=max(1, runs))
+    near = f", an error amplification up to ×{worst.amplification:.3g} near the separatrix" if worst.amplification > 1.01 else ""
+    return get_method(name), f"{why}; one choice for all {len(omegas)} initial spins, made for the most demanding (|ω₀| up to {worst.rate:.3g} rad/s{near})", chosen
+
+
+def _auto(scene: Scene, settings: Settings, t: np.ndarray, work: cost.Work | None = None, fresh: int = 0) -> tuple[str, str, Settings]:
+    """``auto_choice``; ``work``: the cost model's view of the run(s) (``work_of``); ``fresh``:
+    made for new processes that make ``fresh`` runs each (no kernel loaded there yet)."""
     kind = f"{scene.kind.replace('_', '-')} scene ({scene.kind_reason})"
     if settings.step is not None:
         return _fixed_step_given(scene, settings, kind)
-    work = work_of(scene, t)
+    work = work_of(scene, t) if work is None else work
     no_series = get_method("taylor").unsupported(scene)
     if no_series and settings.order is None:  # a Python torque: no cost model knows its smoothness, dop853 controls its error
         return "dop853", f"auto: dop853 meets rtol = {settings.rtol:g} with error control ({no_series}); {kind}", settings
     estimates = candidates(scene, settings, work)
-    loaded = kernels_loaded(estimates, scene)
+    loaded = {e.method: e.method == "exact" for e in estimates} if fresh else kernels_loaded(estimates, scene)
     runs = {name: get_method(name).unsupported(scene) is None for name in loaded}
-    estimates = [e for e in with_first_use(estimates, loaded) if runs[e.method]]
+    estimates = [e for e in with_first_use(estimates, loaded, fresh) if runs[e.method]]
     if not estimates:
         raise InputError("solver.order", f"no method offers order {settings.order} for this {kind}; omit solver.order")
     meeting = [e for e in estimates if e.error <= ACCURACY_FACTOR * settings.rtol]
@@ -283,7 +321,7 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[str, str, Se
                          for e in others)
     floor = f"; stepping error floor near the separatrix ~{work.floor:.0e}" if work.floor > 1e-3 * settings.rtol else ""
     if not all(loaded[e.method] for e in estimates):
-        floor += "; the stepping methods' times include loading their numba kernel in this process"
+        floor += "; the stepping methods' times include loading their numba kernel " + ("in each worker process" if fresh else "in this process")
     why = (f"auto: {best.label}, expected {_seconds(best.seconds)}: {verdict}"
            + (f" (vs {compared})" if compared else "") + f"; {kind}{floor}")
     return best.method, why, _settings_for(best, settings)

@@ -33,6 +33,7 @@ drift in time by ~δ ΩT / (m₁ K) radians over the run.  With κ = ΩT / (m₁
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -181,7 +182,7 @@ def taylor_estimate(order: int | None, tolerance: float, work: Work) -> Estimate
     return Estimate("taylor", seconds, error, order, None, tolerance)
 
 
-def separatrix(moments: tuple[float, float, float], omega: tuple[float, float, float], span: float, rate: float) -> tuple[float, float]:
+def separatrix(moments: Sequence[float], omega: Sequence[float], span: float, rate: float) -> tuple[float, float]:
     """(error floor, error amplification) of time stepping on a free asymmetric body (module
     docstring); (0, 1) when symmetric."""
     a, b, c = sorted(moments)

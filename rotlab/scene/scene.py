@@ -7,7 +7,7 @@ Internally Λ_P = Λ_U ∘ Λ_axes and ω_P = axesᵀ ω_U; every reported quant
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -105,7 +105,11 @@ class Scene:
     @cached_property
     def rate_scale(self) -> float:
         """A characteristic angular rate (rad/s) of the scene: max(|ω0|, √(|M|/I_min), load frequencies)."""
-        return max(math.sqrt(sum(w * w for w in self.omega0.tolist())), self.shared("load rate", self._load_rate))
+        return self.rate_from(self.omega0.tolist())
+
+    def rate_from(self, omega0: Sequence[float]) -> float:
+        """``rate_scale`` of this body and loads started with ``omega0`` (three numbers) instead."""
+        return max(math.sqrt(sum(w * w for w in omega0)), self.shared("load rate", self._load_rate))
 
     def _load_rate(self) -> float:
         """The loads' part of ``rate_scale``: √(|M|/I_min), their frequencies, damping / I_min."""

@@ -24,6 +24,7 @@ from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError
 from rotlab.parallel import TaskRun, WarmWorkers, run_tasks
 from rotlab.sweep.cases import Case, apply, check_path, expand
+from rotlab.sweep.shared_choice import SharedChoice, initial_only, shared_choice
 from rotlab.trajectory import Trajectory, stack_runs
 
 COMPARISON_SAMPLES = 2000  # per case, in the comparison recording
@@ -145,24 +146,33 @@ def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOu
     return outcomes
 
 
-def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError], expected_runs: int = 0) -> list[CaseOutcome]:
+def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError], expected_runs: int = 0,
+                    choice: SharedChoice | None = None) -> list[CaseOutcome]:
     """Cases one after the other, reported together (``outcomes_of``); never raises for a case:
     an invalid one or one whose run raised is an "error" outcome.  ``expected_runs``: the cases
-    this worker process is expected to run (``auto`` shares a kernel's loading among them)."""
+    this worker process is expected to run (``auto`` shares a kernel's loading among them).
+    ``choice``: the method every case runs with (a sweep over initial states: ``shared_choice``),
+    else each case's own."""
     from rotlab import api
     from rotlab.methods.choose import expect_runs
+    from rotlab.methods.registry import get_method
+    from rotlab.scene.scene import build_scene
 
     if expected_runs:
         expect_runs(expected_runs)
     outcomes: list[CaseOutcome | None] = [None] * len(cases)
     runs: list[tuple[int, Case, Trajectory, float]] = []
+    plan: api.Plan | None = None
     for k, (case, scenario) in enumerate(zip(cases, scenarios)):
         if isinstance(scenario, InputError):
             outcomes[k] = CaseOutcome(case.index, case.values, "error", message=str(scenario))
             continue
         started = time.perf_counter()
         try:
-            traj = api.simulate(scenario, check=False)  # a failed case is reported by its checks
+            if choice is not None and plan is None:  # the cases' sample times are the same: made once
+                plan = (get_method(choice.method), choice.why, choice.settings, scenario.time.sample_times())
+            # a failed case is reported by its checks
+            traj = api.simulate(scenario, check=False) if plan is None else api.run_scene(build_scene(scenario), plan=plan)
         except Exception as exc:
             outcomes[k] = CaseOutcome(case.index, case.values, "error", seconds=time.perf_counter() - started,
                                       message=f"{type(exc).__name__}: {exc}")
@@ -178,9 +188,10 @@ def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError, expected_run
     return run_sweep_cases([case], [scenario], expected_runs)[0]
 
 
-def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case], expected_runs: int = 0) -> list[CaseOutcome]:
+def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case], expected_runs: int = 0,
+                    choice: SharedChoice | None = None) -> list[CaseOutcome]:
     """A local worker's task: ``cases`` validated here (``case_scenario``) and run (``run_sweep_cases``)."""
-    return run_sweep_cases(cases, [case_scenario(raw, base, case, source) for case in cases], expected_runs)
+    return run_sweep_cases(cases, [case_scenario(raw, base, case, source) for case in cases], expected_runs, choice)
 
 
 def ensemble_eligible(p: SweepPlan) -> bool:
@@ -190,7 +201,7 @@ def ensemble_eligible(p: SweepPlan) -> bool:
 
 def _ensemble_shape(method: object, paths: Iterable[str]) -> bool:
     """rk4, and only initial conditions swept: what the ensemble kernel runs."""
-    return method == "rk4" and all(path.startswith("initial.") for path in paths)
+    return method == "rk4" and initial_only(paths)
 
 
 def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
@@ -292,17 +303,22 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     # each worker runs about this many cases: auto shares a kernel's loading among them; not with a
     # per-case --timeout, whose clock the first case's kernel load would run out on every new worker
     per_worker = -(-len(p.cases) // workers) if timeout is None else 0
+    # only initial states vary: one method for all cases, chosen here (not with a per-case --timeout:
+    # its clock would run out on a new worker's kernel load, for which the choice counts on sharing it)
+    choice = shared_choice(p) if timeout is None and initial_only(p.base.sweep.parameters) else None
     chunks = [p.cases[i:i + size] for i in range(0, len(p.cases), size)]
-    run = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, per_worker) for chunk in chunks], jobs,
+    run = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, per_worker, choice) for chunk in chunks], jobs,
                     timeout=timeout, retries=retries if size == 1 else 0, preload=WORKER_MODULES, warm=warm)
     outcomes, again = collect_outcomes(chunks, run)
     stopped = run.stopped
     if size > 1 and again and stopped is None:  # a chunk's worker died: its cases one by one
-        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], per_worker) for case in again], jobs, retries=retries,
-                          preload=WORKER_MODULES)
+        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], per_worker, choice) for case in again], jobs,
+                          retries=retries, preload=WORKER_MODULES)
         outcomes.update(collect_outcomes([[case] for case in again], rerun)[0])
         stopped = rerun.stopped
     how = f"{workers} local worker process{'es' if workers > 1 else ''}" + (f", {size} cases a task" if size > 1 else "")
+    if choice is not None:
+        how += f"; only initial states vary, one method for all cases: {choice.why}"
     return SweepRun([outcomes[case.index] for case in p.cases], how, stopped)
 
 
