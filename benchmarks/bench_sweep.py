@@ -96,7 +96,8 @@ def main() -> None:
     from rotlab.methods.registry import get_method
     from rotlab.parallel import run_tasks
     from rotlab.scene.scene import build_scene
-    from rotlab.sweep.runner import CHUNK_CASES, case_scenario, outcomes_of, plan, run_sweep_chunk
+    from rotlab.sweep.cases import case_scenario
+    from rotlab.sweep.runner import CHUNK_CASES, outcomes_of, plan, run_sweep_chunk
 
     try:
         from rotlab.sweep.shared_choice import shared_choice

@@ -13,7 +13,8 @@ import rotlab
 from rotlab.methods.base import Settings
 from rotlab.methods.choose import ensemble_choice, work_of, worst_work
 from rotlab.scene.scene import build_scene
-from rotlab.sweep.runner import case_scenario, plan, run_cases
+from rotlab.sweep.cases import case_scenario
+from rotlab.sweep.runner import plan, run_cases
 from rotlab.sweep.shared_choice import case_omegas, shared_choice
 
 RTOL = 1e-8

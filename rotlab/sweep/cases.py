@@ -1,4 +1,4 @@
-"""Expand a ``[sweep]`` section into cases.
+"""Expand a ``[sweep]`` section into cases, and each case's scenario.
 
 Cases are the Cartesian product of the grid values (in the order the parameters are written),
 each repeated ``samples`` times with fresh random draws when there are random parameters.
@@ -11,12 +11,14 @@ from __future__ import annotations
 import difflib
 import itertools
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 from pydantic import BaseModel
 
 from rotlab.config import models as cfg
+from rotlab.config.loader import parse_scenario
 from rotlab.config.paths import model_defaults, parse_key_path, set_at
 from rotlab.errors import InputError
 
@@ -83,3 +85,28 @@ def apply(raw: dict[str, Any], base: cfg.Scenario, values: dict[str, Any]) -> di
     for path, value in values.items():
         set_at(data, path, value, f"sweep.parameters.{path}", model_defaults(base))
     return data
+
+
+def case_scenario(raw: dict[str, Any], base: cfg.Scenario, case: Case, source: str) -> cfg.Scenario | InputError:
+    """The scenario of ``case``: its values applied to the file's document, validated (an invalid
+    case is returned as its error)."""
+    try:
+        return parse_scenario(apply(raw, base, case.values), source=f"{source} case {case.index}")
+    except InputError as exc:
+        return exc
+
+
+@dataclass
+class SweepPlan:
+    """A sweep file read: its scenario (``base``), its cases and the document they change."""
+
+    base: cfg.Scenario
+    cases: list[Case]
+    raw: dict[str, Any]  # the file's document, to which each case's values are applied
+    source: str  # the file, as error messages name it
+
+    @cached_property
+    def scenarios(self) -> list[cfg.Scenario | InputError]:
+        """Every case validated (a bad case is kept as its error).  Local workers validate their
+        own cases instead: validating takes less than pickling a validated scenario."""
+        return [case_scenario(self.raw, self.base, case, self.source) for case in self.cases]

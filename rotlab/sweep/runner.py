@@ -13,7 +13,6 @@ import time
 from collections.abc import Iterable
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
-from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +22,7 @@ from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError
 from rotlab.parallel import TaskRun, WarmWorkers, run_tasks
-from rotlab.sweep.cases import Case, apply, check_path, expand
+from rotlab.sweep.cases import Case, SweepPlan, case_scenario, check_path, expand
 from rotlab.sweep.shared_choice import SharedChoice, initial_only, shared_choice
 from rotlab.trajectory import Trajectory, stack_runs
 
@@ -51,20 +50,6 @@ class CaseOutcome:
     energy_drift: np.ndarray | None = None
 
 
-@dataclass
-class SweepPlan:
-    base: cfg.Scenario
-    cases: list[Case]
-    raw: dict[str, Any]  # the file's document, to which each case's values are applied
-    source: str  # the file, as error messages name it
-
-    @cached_property
-    def scenarios(self) -> list[cfg.Scenario | InputError]:
-        """Every case validated (a bad case is kept as its error).  Local workers validate their
-        own cases instead: validating takes less than pickling a validated scenario."""
-        return [case_scenario(self.raw, self.base, case, self.source) for case in self.cases]
-
-
 def plan(config: Path) -> SweepPlan:
     """Read the config, expand its [sweep] and validate the first case (a bad first case is a bad
     sweep; the others are validated where they run)."""
@@ -79,15 +64,6 @@ def plan(config: Path) -> SweepPlan:
     if isinstance(first, InputError):
         raise first
     return p
-
-
-def case_scenario(raw: dict[str, Any], base: cfg.Scenario, case: Case, source: str) -> cfg.Scenario | InputError:
-    """The scenario of ``case``: its values applied to the file's document, validated (an invalid
-    case is returned as its error)."""
-    try:
-        return parse_scenario(apply(raw, base, case.values), source=f"{source} case {case.index}")
-    except InputError as exc:
-        return exc
 
 
 def outcomes_of(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOutcome]:

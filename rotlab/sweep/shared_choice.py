@@ -14,16 +14,13 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rotlab.config.paths import parse_key_path
 from rotlab.methods.base import Settings
 from rotlab.rows import row_dot
-
-if TYPE_CHECKING:
-    from rotlab.sweep.runner import SweepPlan
+from rotlab.sweep.cases import SweepPlan, case_scenario
 
 OMEGA = "initial.omega"
 
@@ -48,7 +45,6 @@ def shared_choice(p: SweepPlan) -> SharedChoice:
     the number of workers: the choice, and so every case's result, does not depend on ``-j``."""
     from rotlab.methods.choose import ensemble_choice
     from rotlab.scene.scene import build_scene
-    from rotlab.sweep.runner import case_scenario
 
     scene = build_scene(p.base)  # the body and loads of every case
     omegas, fastest = case_omegas(p, scene.axes)
