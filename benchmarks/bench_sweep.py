@@ -139,7 +139,7 @@ def main() -> None:
         runs = [(case, rotlab.simulate(scenario), 0.0) for case, scenario in zip(p.cases[2 * third:3 * third], p.scenarios[2 * third:3 * third])]
         chunks = [runs[k:k + CHUNK_CASES] for k in range(0, len(runs), CHUNK_CASES)]
         report = _median_us(outcomes_of, chunks) / CHUNK_CASES
-        fresh = p.cases[3 * third:]  # cases auto's cache has not seen
+        fresh = p.cases[3 * third:] or p.cases  # cases auto's cache has not seen (when there are enough)
         tasks = [fresh[k:k + CHUNK_CASES] for k in range(0, min(len(fresh), 20 * CHUNK_CASES), CHUNK_CASES)]
         worker = _median_us(lambda cases: run_sweep_chunk(p.raw, p.base, p.source, cases, args.cases, *choice), tasks) / CHUNK_CASES
         stamps: list[float] = []
