@@ -29,6 +29,7 @@ pays for it once (a look-up: a few µs).
 
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import replace
 
@@ -118,19 +119,26 @@ def work_of(scene: Scene, t: np.ndarray, omega0: np.ndarray | None = None) -> co
                      amplification=amplification)
 
 
-def worst_work(scene: Scene, t: np.ndarray, omegas: np.ndarray) -> cost.Work:
-    """``work_of`` for the most demanding of the runs of ``scene`` from each initial ω in
-    ``omegas`` (rows, principal frame): the largest rate scale, error floor and amplification."""
-    work = work_of(scene, t, omegas[0])
+def worst_work(scene: Scene, t: np.ndarray, omegas: np.ndarray, floor_limit: float = math.inf) -> tuple[cost.Work | None, np.ndarray]:
+    """(``work_of`` for the most demanding of the runs of ``scene`` from each initial ω in
+    ``omegas`` (rows, principal frame) whose stepping error floor is at most ``floor_limit``:
+    the largest rate scale, floor and amplification among them, or None when there is none;
+    which rows those are).  A spin on or near a separatrix (its floor above the limit: only an
+    exact solution meets rtol there) is left out, not let to set every run's step."""
     span = float(t[-1] - t[0])
-    rates = [scene.rate_from(omega) or 1.0 / max(span, 1e-300) for omega in omegas.tolist()]
-    floor, amplification = work.floor, work.amplification
+    rows = omegas.tolist()
+    rates = [scene.rate_from(omega) or 1.0 / max(span, 1e-300) for omega in rows]
+    floors, amplifications = [0.0] * len(rows), [1.0] * len(rows)
     if scene.kind == TORQUE_FREE:
         moments = tuple(scene.moments.tolist())
-        for omega, rate in zip(omegas.tolist(), rates):
-            f, a = cost.separatrix(moments, omega, span, rate)
-            floor, amplification = max(floor, f), max(amplification, a)
-    return replace(work, rate=max(rates), floor=floor, amplification=amplification)
+        for k, (omega, rate) in enumerate(zip(rows, rates)):
+            floors[k], amplifications[k] = cost.separatrix(moments, omega, span, rate)
+    within = np.array([floor <= floor_limit for floor in floors], dtype=bool)
+    if not within.any():
+        return None, within
+    kept = np.flatnonzero(within).tolist()
+    return replace(work_of(scene, t, omegas[kept[0]]), rate=max(rates[k] for k in kept), floor=max(floors[k] for k in kept),
+                   amplification=max(amplifications[k] for k in kept)), within
 
 
 def _breakpoints(scene: Scene) -> np.ndarray:
@@ -270,37 +278,33 @@ def _exact_kind(scene: Scene) -> str:
 
 def auto_choice(scene: Scene, settings: Settings, t: np.ndarray) -> tuple[Method, str, Settings]:
     """``auto``'s choice, not cached (``choose_method`` caches it by its inputs)."""
-    name, why, chosen = _auto(scene, settings, t)
+    name, why, chosen, _ = _auto(scene, settings, t)
     return get_method(name), why, chosen
 
 
-def ensemble_choice(scene: Scene, requested: str, settings: Settings, t: np.ndarray, omegas: np.ndarray,
-                    runs: int) -> tuple[Method, str, Settings]:
-    """One choice for runs of ``scene``'s body, loads and settings from each initial ω in
-    ``omegas`` (rows, principal frame; ``scene``: the run whose spin is fastest), made for new
-    processes that make ``runs`` runs each (a sweep's workers): ``auto``'s choice for the most
-    demanding of them, i.e. for the fastest spin and the largest error floor and amplification
-    near the separatrix among them, so that each run is expected to meet rtol with it.  The
-    method's cost is that of the fastest run; slower runs take fewer steps of an adaptive method
-    (``taylor``) and the same step of a fixed-step one (``dmv``)."""
-    if requested != "auto" or settings.step is not None or not len(omegas):
-        return choose_method(scene, requested, settings, t)
-    worst = worst_work(scene, t, omegas)
-    name, why, chosen = _auto(scene, settings, t, worst, fresh=max(1, runs))
-    near = f", an error amplification up to ×{worst.amplification:.3g} near the separatrix" if worst.amplification > 1.01 else ""
-    return get_method(name), f"{why}; one choice for all {len(omegas)} initial spins, made for the most demanding (|ω₀| up to {worst.rate:.3g} rad/s{near})", chosen
+def ensemble_choice(scene: Scene, settings: Settings, t: np.ndarray, work: cost.Work, runs: int) -> tuple[Method, str, Settings] | None:
+    """``auto``'s one choice for many runs of ``scene``'s body, loads and settings from different
+    initial spins, ``work`` the most demanding of them (``worst_work``; ``scene``: a run with the
+    fastest spin), so that each run is expected to meet rtol.  Loading a kernel is costed as in
+    new processes, shared among ``runs`` runs (a sweep's cases, not a worker's: the choice does
+    not depend on the number of workers).  None when no method is expected to meet rtol there
+    (each run then chooses for itself)."""
+    name, why, chosen, meets = _auto(scene, settings, t, work, fresh=max(1, runs))
+    return (get_method(name), why, chosen) if meets else None
 
 
-def _auto(scene: Scene, settings: Settings, t: np.ndarray, work: cost.Work | None = None, fresh: int = 0) -> tuple[str, str, Settings]:
-    """``auto_choice``; ``work``: the cost model's view of the run(s) (``work_of``); ``fresh``:
-    made for new processes that make ``fresh`` runs each (no kernel loaded there yet)."""
+def _auto(scene: Scene, settings: Settings, t: np.ndarray, work: cost.Work | None = None,
+          fresh: int = 0) -> tuple[str, str, Settings, bool]:
+    """(``auto_choice``'s method name, why, settings; whether it is expected to meet rtol).
+    ``work``: the cost model's view of the run(s) (``work_of``); ``fresh``: made for new
+    processes, loading a kernel shared among ``fresh`` runs (none is loaded there yet)."""
     kind = f"{scene.kind.replace('_', '-')} scene ({scene.kind_reason})"
     if settings.step is not None:
-        return _fixed_step_given(scene, settings, kind)
+        return (*_fixed_step_given(scene, settings, kind), True)
     work = work_of(scene, t) if work is None else work
     no_series = get_method("taylor").unsupported(scene)
     if no_series and settings.order is None:  # a Python torque: no cost model knows its smoothness, dop853 controls its error
-        return "dop853", f"auto: dop853 meets rtol = {settings.rtol:g} with error control ({no_series}); {kind}", settings
+        return "dop853", f"auto: dop853 meets rtol = {settings.rtol:g} with error control ({no_series}); {kind}", settings, True
     estimates = candidates(scene, settings, work)
     loaded = {e.method: e.method == "exact" for e in estimates} if fresh else kernels_loaded(estimates, scene)
     runs = {name: get_method(name).unsupported(scene) is None for name in loaded}
@@ -324,7 +328,7 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray, work: cost.Work | Non
         floor += "; the stepping methods' times include loading their numba kernel " + ("in each worker process" if fresh else "in this process")
     why = (f"auto: {best.label}, expected {_seconds(best.seconds)}: {verdict}"
            + (f" (vs {compared})" if compared else "") + f"; {kind}{floor}")
-    return best.method, why, _settings_for(best, settings)
+    return best.method, why, _settings_for(best, settings), bool(meeting)
 
 
 def _settings_for(best: cost.Estimate, settings: Settings) -> Settings:

@@ -145,10 +145,11 @@ def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError
             continue
         started = time.perf_counter()
         try:
-            if choice is not None and plan is None:  # the cases' sample times are the same: made once
+            shared = choice is not None and case.index not in choice.own
+            if shared and plan is None:  # the cases' sample times are the same: made once
                 plan = (get_method(choice.method), choice.why, choice.settings, scenario.time.sample_times())
             # a failed case is reported by its checks
-            traj = api.simulate(scenario, check=False) if plan is None else api.run_scene(build_scene(scenario), plan=plan)
+            traj = api.run_scene(build_scene(scenario), plan=plan) if shared else api.simulate(scenario, check=False)
         except Exception as exc:
             outcomes[k] = CaseOutcome(case.index, case.values, "error", seconds=time.perf_counter() - started,
                                       message=f"{type(exc).__name__}: {exc}")
@@ -294,7 +295,7 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         stopped = rerun.stopped
     how = f"{workers} local worker process{'es' if workers > 1 else ''}" + (f", {size} cases a task" if size > 1 else "")
     if choice is not None:
-        how += f"; only initial states vary, one method for all cases: {choice.why}"
+        how += f"; only initial states vary, one method for {'the' if choice.own else 'all'} cases: {choice.label}: {choice.why}"
     return SweepRun([outcomes[case.index] for case in p.cases], how, stopped)
 
 

@@ -1,12 +1,14 @@
-"""One method for every case of a sweep over initial states.
+"""One method for the cases of a sweep over initial states.
 
 When a sweep varies only ``initial.*`` keys, its cases share the body, the loads, the time grid
 and the solver settings: ``auto`` then makes one choice for all of them, in the main process,
 instead of a fresh one per case in the workers (~45 µs a case, more than a short case's
-integration).  The choice is the one for the most demanding case — the fastest spin, and the
-largest error floor and amplification near the separatrix (``rotlab.methods.choose.
-ensemble_choice``) — so that every case is expected to meet rtol with it, whatever the number of
-workers or the order in which they take the cases.  An explicit method runs as requested.
+integration).  It is the choice for the most demanding case — the fastest spin, and the largest
+error floor and amplification near the separatrix (``rotlab.methods.choose.worst_work``) — so
+that every case is expected to meet rtol with it, whatever the number of workers.  A case on or
+near a separatrix, where no stepping method meets rtol (only an exact solution does), would make
+that choice absurd for all the others: such a case makes its own choice instead, and so does every
+case when no method is expected to meet rtol.  An explicit method runs as requested.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rotlab.config.paths import parse_key_path
+from rotlab.errors import InputError
 from rotlab.methods.base import Settings
 from rotlab.rows import row_dot
 from rotlab.sweep.cases import SweepPlan, case_scenario
@@ -27,11 +30,21 @@ OMEGA = "initial.omega"
 
 @dataclass(frozen=True)
 class SharedChoice:
-    """What every case of the sweep runs with (sent to the workers)."""
+    """What the cases of a sweep run with (sent to the workers): ``method`` and ``settings``,
+    why, and the cases (indices) that make their own choice instead."""
 
     method: str
     why: str
     settings: Settings
+    own: frozenset[int] = frozenset()
+
+    @property
+    def label(self) -> str:
+        """The method and the settings it runs with, to the last digit: what reproduces a case alone."""
+        s = self.settings
+        parts = [f"order {s.order}" if s.order is not None else "", f"step {s.step!r} s" if s.step is not None else "",
+                 f"rtol {s.rtol!r}, atol {s.atol!r}" if s.step is None else ""]
+        return f"{self.method} ({', '.join(p for p in parts if p)})"
 
 
 def initial_only(paths: Iterable[str]) -> bool:
@@ -39,48 +52,73 @@ def initial_only(paths: Iterable[str]) -> bool:
     return all(path.startswith("initial.") for path in paths)
 
 
-def shared_choice(p: SweepPlan) -> SharedChoice:
-    """The method, reason and settings for all cases of ``p`` (a sweep over initial states).
-    Loading a stepping method's kernel in a new process is shared among all the cases, whatever
-    the number of workers: the choice, and so every case's result, does not depend on ``-j``."""
-    from rotlab.methods.choose import ensemble_choice
+def shared_choice(p: SweepPlan) -> SharedChoice | None:
+    """The method and settings for the cases of ``p`` (a sweep over initial states), or None when
+    each case is to choose its own (no method is expected to meet rtol for the most demanding,
+    or the choice is an input error, which each case then reports)."""
+    from rotlab.methods.choose import ACCURACY_FACTOR, choose_method, ensemble_choice, worst_work
     from rotlab.scene.scene import build_scene
 
     scene = build_scene(p.base)  # the body and loads of every case
-    omegas, fastest = case_omegas(p, scene.axes)
-    if fastest is not None:  # auto's view of the exact solution's cost depends on ω₀ too: the fastest case's
-        scenario = case_scenario(p.raw, p.base, p.cases[fastest], p.source)
-        scene = scene if isinstance(scenario, Exception) else build_scene(scenario)
+    t = p.base.time.sample_times()
     solver = p.base.solver
-    method, why, settings = ensemble_choice(scene, solver.method, Settings.of(solver), p.base.time.sample_times(), omegas,
-                                            len(p.cases))
-    return SharedChoice(method.name, why, settings)
+    settings = Settings.of(solver)
+    try:
+        if solver.method != "auto" or settings.step is not None:  # nothing to choose by cost
+            method, why, chosen_settings = choose_method(scene, solver.method, settings, t)
+            return SharedChoice(method.name, why, chosen_settings)
+        omegas, positions = case_omegas(p, scene.axes)
+        if not len(omegas):
+            return None
+        distinct, inverse = np.unique(omegas, axis=0, return_inverse=True)
+        work, within_distinct = worst_work(scene, t, distinct, floor_limit=ACCURACY_FACTOR * settings.rtol)
+        if work is None:
+            return None
+        within = within_distinct[inverse.reshape(-1)]
+        speeds = np.sqrt(row_dot(omegas, omegas))
+        fastest = positions[int(np.argmax(np.where(within, speeds, -1.0)))]
+        scenario = case_scenario(p.raw, p.base, p.cases[fastest], p.source)  # auto's view of exact's cost depends on ω₀ too
+        chosen = ensemble_choice(scene if isinstance(scenario, InputError) else build_scene(scenario), settings, t, work, len(p.cases))
+    except InputError:
+        return None
+    if chosen is None:
+        return None
+    method, why, chosen_settings = chosen
+    own = frozenset(p.cases[positions[k]].index for k in np.flatnonzero(~within).tolist())
+    why += (f"; chosen once for {len(p.cases) - len(own)} cases, for the most demanding: the fastest spin |ω₀| = "
+            f"{float(np.max(speeds[within])):.3g} rad/s" + (f", a stepping-error amplification up to ×{work.amplification:.3g}"
+                                                          if work.amplification > 1.01 else ""))
+    if own:
+        why += f"; {len(own)} case{'s' if len(own) > 1 else ''} near a separatrix, where no stepping method meets rtol, choose their own"
+    return SharedChoice(method.name, why, chosen_settings, own)
 
 
-def case_omegas(p: SweepPlan, axes: np.ndarray) -> tuple[np.ndarray, int | None]:
-    """(each distinct initial ω of the cases, principal frame, as rows; the position in
-    ``p.cases`` of the case with the fastest spin, None when ω is not swept).  A case whose ω is
-    not three finite numbers is left out (its worker reports the error)."""
-    base = list(p.base.initial.omega)
-    swept = [(path, parse_key_path(path, path)[2:]) for path in p.base.sweep.parameters if path == OMEGA or path.startswith(OMEGA + "[")]
+def case_omegas(p: SweepPlan, axes: np.ndarray) -> tuple[np.ndarray, list[int]]:
+    """(the initial ω of each case, principal frame, as rows; each row's position in
+    ``p.cases``).  A case whose ω is not three finite numbers is left out (its worker reports
+    the error).  The values are set in the order the case applies them (``sweep.cases.apply``)."""
+    base = [float(x) for x in p.base.initial.omega]
+    swept = {path: parse_key_path(path, path)[2:] for path in p.base.sweep.parameters
+             if parse_key_path(path, path)[:2] == ["initial", "omega"]}
     if not swept:
-        return np.array([base]) @ axes, None
+        return np.repeat(np.array([base]) @ axes, len(p.cases), axis=0), list(range(len(p.cases)))
     rows, positions = [], []
     for position, case in enumerate(p.cases):
         omega = base.copy()
         try:
-            for path, index in swept:  # initial.omega = [x, y, z] or initial.omega[k] = x
-                if index:
-                    omega[index[0]] = float(case.values[path])
-                else:
-                    omega = [float(x) for x in case.values[path]]
+            for path, value in case.values.items():
+                index = swept.get(path)
+                if index is None:
+                    continue
+                if len(index) > 1:
+                    raise IndexError(path)
+                if index:  # initial.omega[k] = x
+                    omega[index[0]] = float(value)
+                else:  # initial.omega = [x, y, z]
+                    omega = [float(x) for x in value]
         except (TypeError, ValueError, IndexError):
             continue
         if len(omega) == 3 and all(math.isfinite(x) for x in omega):
             rows.append(omega)
             positions.append(position)
-    if not rows:
-        return np.empty((0, 3)), None
-    user = np.array(rows)
-    fastest = positions[int(np.argmax(row_dot(user, user)))]
-    return np.unique(user, axis=0) @ axes, fastest
+    return (np.array(rows) @ axes if rows else np.empty((0, 3))), positions
