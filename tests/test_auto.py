@@ -74,6 +74,24 @@ def test_auto_near_the_separatrix_at_loose_rtol_tightens_the_stepper():
     assert _error(auto, ref) <= 1e-5
 
 
+def test_auto_with_an_order_on_the_separatrix_runs_in_few_steps():
+    """A spin exactly about the intermediate axis (on the separatrix: the cost model's error
+    floor is unbounded) with ``solver.order`` set, so no exact solution: auto's taylor tolerance
+    stops at ``TAYLOR_MIN_TOLERANCE`` instead of rtol / amplification = 1e-303, which ran into the
+    step budget (2·10⁸ steps, two minutes); the steady spin stays within 10·rtol of exact."""
+    from rotlab.methods.choose import TAYLOR_MIN_TOLERANCE
+
+    sc = _with(CONFIGS / "euler.toml", 1e-8)
+    sc = sc.model_copy(update={"body": sc.body.model_copy(update={"principal_moments": (1.0, 2.0, 3.0)}),
+                               "initial": sc.initial.model_copy(update={"omega": (0.0, 1.0, 0.0)}),
+                               "solver": sc.solver.model_copy(update={"order": 16})})
+    auto = rotlab.simulate(sc)
+    assert auto.stats.method == "taylor" and auto.stats.steps < 1000
+    assert auto.stats.details["rtol"] == TAYLOR_MIN_TOLERANCE
+    ref = rotlab.simulate(sc.model_copy(update={"solver": sc.solver.model_copy(update={"order": None})}), method="exact")
+    assert _error(auto, ref) <= 10 * 1e-8
+
+
 @pytest.mark.parametrize("rtol", [1e-8, 1e-12])
 def test_auto_on_the_lagrange_top_meets_rtol(rtol):
     sc = _with(CONFIGS / "lagrange.toml", rtol, end=2.0)

@@ -43,6 +43,9 @@ from rotlab.scene.scene import LAGRANGE, TORQUE_FREE, Scene
 
 ACCURACY_FACTOR = 10.0  # "meets rtol": expected max error ≤ this × rtol
 TAYLOR_MARGIN = 10.0  # taylor's local tolerance = rtol / this
+# ... and never below this: a smaller tolerance asks for no more than rounding gives and only shrinks the steps
+# toward the step budget (a spin exactly on a separatrix asked for 1e-303: 2·10⁸ steps, two minutes, no result)
+TAYLOR_MIN_TOLERANCE = 1e-16
 DMV_ORDERS = (8, 10, 12)
 SPLITTING_ORDERS = (4, 6, 8)
 TAYLOR_ORDER_RANGE = (4, 40)
@@ -153,7 +156,7 @@ def candidates(scene: Scene, settings: Settings, work: cost.Work) -> list[cost.E
     out: list[cost.Estimate] = []
     if scene.kind in (TORQUE_FREE, LAGRANGE) and order is None:
         out.append(cost.exact_estimate(_exact_kind(scene), work))
-    tolerance = rtol / max(TAYLOR_MARGIN, work.amplification)
+    tolerance = max(rtol / max(TAYLOR_MARGIN, work.amplification), TAYLOR_MIN_TOLERANCE)
     if order is None or TAYLOR_ORDER_RANGE[0] <= order <= TAYLOR_ORDER_RANGE[1]:
         out.append(cost.taylor_estimate(order, tolerance, work))
     target = rtol / work.amplification  # the fixed-step methods' probes aim at rtol itself
