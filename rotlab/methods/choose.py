@@ -128,20 +128,13 @@ def worst_work(scene: Scene, t: np.ndarray, omegas: np.ndarray, floor_limit: flo
     the largest rate scale, floor and amplification among them, or None when there is none;
     which rows those are).  A spin on or near a separatrix (its floor above the limit: only an
     exact solution meets rtol there) is left out, not let to set every run's step."""
-    span = float(t[-1] - t[0])
-    rows = omegas.tolist()
-    rates = [scene.rate_from(omega) or 1.0 / max(span, 1e-300) for omega in rows]
-    floors, amplifications = [0.0] * len(rows), [1.0] * len(rows)
-    if scene.kind == TORQUE_FREE:
-        moments = tuple(scene.moments.tolist())
-        for k, (omega, rate) in enumerate(zip(rows, rates)):
-            floors[k], amplifications[k] = cost.separatrix(moments, omega, span, rate)
-    within = np.array([floor <= floor_limit for floor in floors], dtype=bool)
-    if not within.any():
+    works = [work_of(scene, t, omega) for omega in omegas]
+    within = np.array([w.floor <= floor_limit for w in works], dtype=bool)
+    kept = [w for w, keep in zip(works, within) if keep]
+    if not kept:
         return None, within
-    kept = np.flatnonzero(within).tolist()
-    return replace(work_of(scene, t, omegas[kept[0]]), rate=max(rates[k] for k in kept), floor=max(floors[k] for k in kept),
-                   amplification=max(amplifications[k] for k in kept)), within
+    return replace(kept[0], rate=max(w.rate for w in kept), floor=max(w.floor for w in kept),
+                   amplification=max(w.amplification for w in kept)), within
 
 
 def _breakpoints(scene: Scene) -> np.ndarray:
