@@ -121,7 +121,8 @@ def main() -> None:
         for scenario in p.scenarios[-20:]:
             rotlab.simulate(scenario)  # kernels loaded
         chosen_at = time.perf_counter()
-        choice = () if shared_choice is None else (shared_choice(p),)
+        shared = None if shared_choice is None else shared_choice(p)  # None: each case chooses its own
+        choice = () if shared is None else (shared,)
         choosing = (time.perf_counter() - chosen_at) / len(p.cases) * 1e6
         third = min(len(p.scenarios), 1500) // 3  # three sets of cases, none seen before by auto's cache
         planned = []

@@ -1,5 +1,7 @@
 """Run a sweep's cases: local processes (default), a Dask cluster (``--dask``), or — when only
 initial conditions vary and the method is ``rk4`` — one ensemble kernel call for all bodies.
+When only initial conditions vary, the local workers run every case with one method chosen here
+(``rotlab.sweep.shared_choice``) rather than each case's own.
 Local workers take the cases in chunks (``chunk_size``): a worker validates its chunk's cases,
 runs them one after the other and reports them together, the runs of one body and loads stacked
 (``outcomes_of``).  A failing case is reported with its error; the others complete."""
@@ -194,7 +196,7 @@ def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
     first = scenes[0]
     t = first.scenario.time.sample_times()
     s = first.scenario.solver
-    settings = Settings(step=s.step, rtol=s.rtol, atol=s.atol, max_steps=s.max_steps)
+    settings = Settings.of(s)  # (rk4 has one order: solver.order plays no part)
     method = get_method("rk4")
     order = method.order(settings)
     substeps = max(1, math.ceil(float(t[1] - t[0]) / min(method.step(sc, t, settings, order) for sc in scenes) - 1e-9))

@@ -25,8 +25,6 @@ from rotlab.methods.base import Settings
 from rotlab.rows import row_dot
 from rotlab.sweep.cases import SweepPlan, case_scenario
 
-OMEGA = "initial.omega"
-
 
 @dataclass(frozen=True)
 class SharedChoice:
@@ -98,8 +96,8 @@ def case_omegas(p: SweepPlan, axes: np.ndarray) -> tuple[np.ndarray, list[int]]:
     ``p.cases``).  A case whose ω is not three finite numbers is left out (its worker reports
     the error).  The values are set in the order the case applies them (``sweep.cases.apply``)."""
     base = [float(x) for x in p.base.initial.omega]
-    swept = {path: parse_key_path(path, path)[2:] for path in p.base.sweep.parameters
-             if parse_key_path(path, path)[:2] == ["initial", "omega"]}
+    parts = {path: parse_key_path(path, path) for path in p.base.sweep.parameters}
+    swept = {path: part[2:] for path, part in parts.items() if part[:2] == ["initial", "omega"]}  # → [] or [k]
     if not swept:
         return np.repeat(np.array([base]) @ axes, len(p.cases), axis=0), list(range(len(p.cases)))
     rows, positions = [], []
