@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs, rhs_called, store_row
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs_called, rhs_llvm_inlined, store_row
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -45,10 +45,14 @@ def initial_step(t, y, f0, t_end, rtol, atol, model):
     d1 = _rms_scaled(f0, y, rtol, atol)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, t_end - t)
-    y1 = y + h0 * f0
-    f1 = np.empty_like(y)
+    y1 = np.empty(STATE_SIZE)  # loops, not array expressions: those compile NumPy's ufunc machinery
+    f1 = np.empty(STATE_SIZE)
+    for m in range(STATE_SIZE):
+        y1[m] = y[m] + h0 * f0[m]
     rhs_called(t + h0, y1, f1, model)
-    d2 = _rms_scaled(f1 - f0, y, rtol, atol) / h0
+    for m in range(STATE_SIZE):
+        f1[m] -= f0[m]
+    d2 = _rms_scaled(f1, y, rtol, atol) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
@@ -80,7 +84,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     b = count_at_or_below(breaks, t)  # next breakpoint after t
     fresh = True  # K[0] = f(t, y) is due: at the start and after a step that ended on a breakpoint
     while i < times.shape[0] and steps < max_steps:
-        if fresh:  # at the start and after a breakpoint only: rhs called; inlined in ``_stage`` (hot)
+        if fresh:  # at the start and after a breakpoint only: rhs called; inlined at the stages (hot)
             rhs_called(t, y, K[0], model)
             counters[2] += 1
             fresh = False
@@ -99,7 +103,8 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
         at_break = t_new == limit and limit != t_end
         t_last = np.nextafter(t_new, -np.inf) if at_break else t_new
         for s in range(1, _STAGES + 1):  # the last (FSAL) stage is f(t_last, y_new): A[12, :12] = B
-            _stage(s, t, h, t_last, y, K, tmp, model)
+            _stage_state(s, h, y, K, tmp)
+            rhs_llvm_inlined(t_last if s == _STAGES else min(t + _C[s] * h, t_last), tmp, K[s], model)
         for m in range(STATE_SIZE):
             y_new[m] = tmp[m]
         counters[2] += _STAGES
@@ -161,10 +166,12 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
 
 
 @njit(cache=True, forceinline=True)
-def _stage(s, t, h, t_last, y, K, tmp, model):
-    """K[s] ← f(t + c_s h, y + h Σ_j a_sj K[j]), the stage time capped at ``t_last``; stage 12
-    (c = 1, a_12j = b_j) at ``t_last`` itself, leaving y_new = y + h Σ b_j K[j] in ``tmp``.
-    Typed once (``rhs`` inlined by numba here), inlined by LLVM into the step and the dense output."""
+def _stage_state(s, h, y, K, tmp):
+    """tmp ← y + h Σ_{j<s} a_sj K[j], the state at which stage s evaluates f (its time is
+    t + c_s h, capped at the step's ``t_last``); for s = 12 (a_12j = b_j) that is y_new.
+    Model-free, so typed once per process; ``rhs_llvm_inlined`` follows it at each site: with
+    ``rhs`` inlined by numba into one stage function per model type, ``rhs`` was typed twice
+    (here and for ``rk4``/``rkmk4``), and that cost 0.6–2.3 s of compiling per model type."""
     for m in range(STATE_SIZE):
         tmp[m] = y[m]
     for j in range(s):
@@ -172,7 +179,6 @@ def _stage(s, t, h, t_last, y, K, tmp, model):
         if a != 0.0:
             for m in range(STATE_SIZE):
                 tmp[m] += a * K[j, m]
-    rhs(t_last if s == _STAGES else min(t + _C[s] * h, t_last), tmp, K[s], model)
 
 
 @njit(cache=True)
@@ -180,7 +186,8 @@ def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, model):
     """Stages 14–16 and the interpolant coefficients F (7 × n) of the step [t, t + h]
     (stage times capped at ``t_last``, the left limit at a breakpoint)."""
     for s in range(_STAGES + 1, 16):
-        _stage(s, t, h, t_last, y, K, tmp, model)
+        _stage_state(s, h, y, K, tmp)
+        rhs_llvm_inlined(min(t + _C[s] * h, t_last), tmp, K[s], model)
     for m in range(STATE_SIZE):
         dy = y_new[m] - y[m]
         F[0, m] = dy

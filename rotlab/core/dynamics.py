@@ -13,10 +13,10 @@ specialises on the model's load groups with no call in between.  numba types an 
 anew at every call site, and that typing was most of a kernel's compile time (LLVM ~10–20%), so
 a kernel types ``rhs`` once and lets LLVM inline it: ``rhs_llvm_inlined`` (numba's
 ``forceinline``, LLVM's ``alwaysinline``), called at the four stages of ``rk4`` and ``rkmk4`` and
-compiled once per model type and process, shared by them and by ``rhs_called`` (the cold sites
-of ``dop853``: its start and restarts).  ``dop853``'s stages are one ``forceinline`` function
-with ``rhs`` inlined by numba inside (``rhs_llvm_inlined`` there made ``general.toml`` 28% slower
-a step; this way it is 3–7% faster than with numba's inlining).  Functions called at several
+compiled once per model type and process, shared by them, by ``dop853``'s stages and by
+``rhs_called`` (the cold sites of ``dop853``: its start and restarts).  ``dop853`` calls it right
+in its stage loops: from inside a ``forceinline`` stage function it made ``general.toml`` 28%
+slower a step.  Functions called at several
 sites whose types do not involve the model (``rkmk4``'s exponential map, ``splitting``'s turns)
 are ``forceinline`` too: typed once per process, not once per kernel and model type.  Helpers off the hot path of the
 built-in loads (the helpers below, ``torques._in_body``, the expression loads' torque,
