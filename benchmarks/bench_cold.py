@@ -77,7 +77,8 @@ def fresh(repeats: int) -> None:
                     command = [sys.executable, "-m", "rotlab", "run", config, "-o", os.path.join(cache, "run.rrd"), "-q"]
                     command += ["--method", method] if method else []
                     began = time.perf_counter()
-                    subprocess.run(command, env={**os.environ, "NUMBA_CACHE_DIR": cache}, check=True, stdout=subprocess.DEVNULL)
+                    # cwd outside the checkout: ``-m`` puts the cwd first on sys.path, ahead of PYTHONPATH
+                    subprocess.run(command, env={**os.environ, "NUMBA_CACHE_DIR": cache}, cwd=work, check=True, stdout=subprocess.DEVNULL)
                     walls[k].append(time.perf_counter() - began)
     print(f"== cold `rotlab run` in a fresh process, empty numba cache (median of {repeats}; each run)")
     for k, (config, method) in enumerate(FRESH_CASES):
@@ -98,7 +99,7 @@ def main() -> None:
         for label in ("empty numba cache (compiling)", "filled cache (loading)"):
             print(f"== every method on every shipped config it supports, {label}")
             began = time.perf_counter()
-            subprocess.run([sys.executable, "-c", CHILD], env=env, check=True)
+            subprocess.run([sys.executable, "-c", CHILD], env=env, cwd=cache, check=True)
             print(f"   child process wall {time.perf_counter() - began:.1f} s\n", flush=True)
 
 

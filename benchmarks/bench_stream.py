@@ -40,8 +40,9 @@ def run_child(config: Path, duration: float, out: Path, cold: bool = False) -> d
 
 def _run_child(config: Path, duration: float, out: Path, env: dict | None) -> dict:
     started = time.perf_counter()
-    proc = subprocess.Popen([*ROTLAB, "run", str(config), "--duration", repr(duration), "-o", str(out), "--max-megabytes", "1e9"],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
+    proc = subprocess.Popen([*ROTLAB, "run", str(config.resolve()), "--duration", repr(duration), "-o", str(out.resolve()), "--max-megabytes", "1e9"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env,
+                            cwd=out.resolve().parent)  # outside the checkout: ``-m`` puts the cwd ahead of PYTHONPATH
     text = proc.stdout.read()
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - started

@@ -61,15 +61,16 @@ def _median_us(fn, items) -> float:
     return statistics.median(times) * 1e6
 
 
-def _run_sampling_memory(command: list[str]) -> tuple[float, float] | None:
-    """Run ``command``; with psutil, its peak resident memory and its workers' largest, in MB,
+def _run_sampling_memory(command: list[str], cwd: str) -> tuple[float, float] | None:
+    """Run ``command`` in ``cwd`` (outside the checkout: ``-m`` puts the cwd first on sys.path,
+    ahead of PYTHONPATH); with psutil, its peak resident memory and its workers' largest, in MB,
     sampled every 50 ms (None without psutil)."""
     try:
         import psutil
     except ImportError:
-        subprocess.run(command, check=True, capture_output=True)
+        subprocess.run(command, cwd=cwd, check=True, capture_output=True)
         return None
-    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    child = subprocess.Popen(command, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     process, main_peak, worker_peak = psutil.Process(child.pid), 0, 0
     while child.poll() is None:
         try:
@@ -112,7 +113,7 @@ def main() -> None:
         for jobs in args.jobs:
             started = time.perf_counter()
             command = [sys.executable, "-m", "rotlab", "sweep", str(config), "-o", str(Path(tmp) / f"out{jobs}"), "-j", str(jobs)]
-            peaks[jobs] = _run_sampling_memory(command)
+            peaks[jobs] = _run_sampling_memory(command, tmp)
             sweep[jobs] = (time.perf_counter() - started) / args.cases * 1e6
 
         p = plan(config)
