@@ -340,6 +340,8 @@ def _expression_series(k, t, X, P, ex, inputs, tape, stack):
 
 @overload(load_series, inline="always")
 def _load_series(t, order, model, body, space):
+    if all(isinstance(model.types[model.fields.index(group)], types.NoneType) for group in ("terms", "tables")):
+        return lambda t, order, model, body, space: None  # no time functions: body, space stay zero
     return lambda t, order, model, body, space: _time_series(t, order, model.terms, model.tables, model.table_t, model.table_v, body, space)
 
 
