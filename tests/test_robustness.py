@@ -64,3 +64,63 @@ def test_ctrl_c_leaves_a_valid_partial_recording_or_none(tmp_path):
         assert "interrupted by the user" in err
     else:  # interrupted before stepping began: nothing written
         assert "interrupted" in err
+
+
+_SINGULAR_FROM_THE_START = (  # f(0, y0) not finite: NaN (sqrt of a negative number) and overflow
+    "0.001*sqrt(t-1)",
+    "1e308*exp(t*1000)",
+)
+
+
+def _expression_scene(torque_x: str, method: str) -> str:
+    return ('[body]\nprincipal_moments = [0.01, 0.016, 0.022]\n[initial]\nomega = [1.0, 0.5, 3.0]\n'
+            f'[time]\nend = 2.0\n[solver]\nmethod = "{method}"\nrtol = 1e-10\n'
+            f'[[loads]]\ntype = "expression"\nframe = "body"\ntorque = ["{torque_x}", "0", "0"]\n')
+
+
+@pytest.mark.parametrize("torque_x", _SINGULAR_FROM_THE_START)
+def test_dop853_stops_at_once_when_the_right_hand_side_is_not_finite_at_the_start(tmp_path, torque_x):
+    """dop853 used to take a NaN first step and reject it forever inside one kernel call: Ctrl-C,
+    SIGTERM and --timeout were never honoured (only SIGKILL ended it); an overflowing f gave a
+    ZeroDivisionError traceback.  A subprocess with a timeout, so a regression fails, not hangs."""
+    config = tmp_path / "singular.toml"
+    config.write_text(_expression_scene(torque_x, "dop853"))
+    done = subprocess.run([sys.executable, "-m", "rotlab", "run", str(config), "-o", str(tmp_path / "s.rrd"), "-q"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr and len(done.stderr.strip().splitlines()) == 1
+    assert "state became non-finite between t = 0 s and t = 0.01 s" in done.stderr
+    assert "last valid state: Λ = [1. 0. 0. 0.]" in done.stderr
+    assert (tmp_path / "s.partial.rrd").exists() and not (tmp_path / "s.rrd").exists()
+
+
+@pytest.mark.parametrize("method", ["taylor", "rk4"])
+def test_a_failure_message_names_the_last_sample_it_keeps(method):
+    """A kernel can write non-finite rows before it stops (``taylor`` evaluates a whole step's
+    samples): the message names the interval after the last finite row, which is what is kept
+    (it said "between t = 2 s and t = 2 s; last valid state: Λ = [nan nan nan nan]")."""
+    from rotlab.config import parse_scenario
+    import tomllib
+
+    traj = rotlab.simulate(parse_scenario(tomllib.loads(_expression_scene(_SINGULAR_FROM_THE_START[0], method))), check=False)
+    assert traj.stats.failure.startswith("state became non-finite between t = 0 s and t = 0.01 s; last valid state: Λ = [1. 0. 0. 0.]")
+    assert len(traj.omega) == 1
+
+
+def test_dop853_counts_rejected_steps_against_a_calls_budget():
+    """Every attempt counts, rejected ones included, so a kernel call always returns to the
+    driver (Ctrl-C, --timeout and the step budget are checked between calls)."""
+    import numpy as np
+
+    from rotlab.core import dop853
+    from rotlab.scene.scene import build_scene
+
+    scene = build_scene(rotlab.load(CONFIGS / "lagrange.toml", method="dop853"))
+    times = np.linspace(0.0, 10.0, 3)
+    out = np.empty((3, 8))
+    counters = np.zeros(3, dtype=np.int64)
+    y = scene.state0.copy()
+    # a first trial step of 10 s on a top spinning at 50 rad/s: rejected several times over
+    status, i, t, h = dop853.dop853_advance(y, 0.0, 10.0, times, out, 1, 10.0, 1e-10, 1e-12, 3, scene.model, counters)
+    assert status == dop853.OK and counters[1] >= 1
+    assert counters[0] + counters[1] == 3

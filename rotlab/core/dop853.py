@@ -63,11 +63,15 @@ def initial_step(t, y, f0, t_end, rtol, atol, model):
 @njit(cache=True)
 def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, model, counters):
     """Advance from (t, y) with trial step h (≤ 0: choose one), writing ``out[i]`` for every
-    sample i ≥ i_start passed, until all samples are written or ``max_steps`` steps were taken.
+    sample i ≥ i_start passed, until all samples are written or ``max_steps`` steps were tried.
     Steps end at every time in ``model.breaks`` (sorted): a load that switches or kinks there is never
     stepped over.
 
     ``y`` is updated in place; ``counters`` (int64[3]) accumulates [accepted, rejected, f evals].
+    ``max_steps`` bounds the attempts, rejected ones included, so that the call always returns
+    (Ctrl-C, ``--timeout`` and the step budget are honoured between calls).  The step floor is
+    10 ulp of the larger of |t| and |t_end|: near t = 0 an ulp of t alone (~1e-322 s) let a
+    blow-up take the whole step budget.  A non-finite f(t, y) at a (re)start stops the run.
     Returns (status, next sample index, t, next trial step).
     """
     n = STATE_SIZE
@@ -78,21 +82,24 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     E5v = np.empty(n)
     E3v = np.empty(n)
     i = i_start
-    steps = 0
+    attempts = 0
     rejected = False
     breaks = model.breaks
     b = count_at_or_below(breaks, t)  # next breakpoint after t
     fresh = True  # K[0] = f(t, y) is due: at the start and after a step that ended on a breakpoint
-    while i < times.shape[0] and steps < max_steps:
+    scale = max(abs(t), abs(t_end))
+    min_step = 10.0 * (np.nextafter(scale, np.inf) - scale)
+    while i < times.shape[0] and attempts < max_steps:
         if fresh:  # at the start and after a breakpoint only: rhs called; inlined at the stages (hot)
             rhs_called(t, y, K[0], model)
             counters[2] += 1
             fresh = False
+            if not all_finite(K[0]):
+                return NONFINITE, i, t, h
             if h <= 0.0:
                 h = initial_step(t, y, K[0], t_end, rtol, atol, model)
                 counters[2] += 1
-        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-        if h < min_step:
+        if not h >= min_step:  # NaN too
             return STEP_TOO_SMALL, i, t, h
         t_new = t + h
         limit, _, b = next_piece(t, t_end, breaks, b)
@@ -131,8 +138,8 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
             if not all_finite(y_new) and h <= min_step * 1e3:
                 return NONFINITE, i, t, h
             err = 1e10
+        attempts += 1
         if err < 1.0:
-            steps += 1
             counters[0] += 1
             if times[i] <= t_new:
                 _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, model)

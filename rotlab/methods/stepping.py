@@ -119,8 +119,8 @@ def run_chunks(
     """Call ``advance`` until every sample is written, a failure, the step budget, the
     wall-clock limit or Ctrl-C; ``y`` is the state at ``t[0]`` (advanced in place by the kernel).
 
-    ``describe_failure(status, times, out, i)`` words a non-zero status at local index i of the
-    window (``out`` row i − 1 is the last valid state, at ``times[i − 1]``).  A KeyboardInterrupt ends the run cleanly,
+    ``describe_failure(status, times, out, i)`` words a non-zero status; i is the number of valid
+    rows of the window (``out`` row i − 1 is the last valid state, at ``times[i − 1]``).  A KeyboardInterrupt ends the run cleanly,
     keeping the samples written so far.
     """
     control = current_control()
@@ -146,8 +146,9 @@ def run_chunks(
             steps += taken
             done = base + local
             if status != 0:
-                failure = describe_failure(status, times, window, local)
-                done = base + _valid_rows(window, local)
+                valid = _valid_rows(window, local)  # a kernel may have written non-finite rows before it stopped
+                failure = describe_failure(status, times, window, valid)
+                done = base + valid
             elif taken == 0 and done == i:  # the rest of the budget is less than the next sample needs
                 failure = f"step budget of {max_steps:,} steps exhausted at t = {t[i - 1]:.9g} s (raise solver.max_steps)"
             if streamed and done > i:
