@@ -243,6 +243,39 @@ def test_taylor_mode_series_match_mpmath(name):
     assert value == pytest.approx(float(reference(mpmath.mpf(t0))), rel=1e-14)
 
 
+def _switched_torque_exact(t: np.ndarray, omega0, big_omega: float, m_before: float, m_after: float, t_switch: float) -> np.ndarray:
+    """ω of an axisymmetric body (A = B) under a body-frame torque A·m about x that jumps from
+    m_before to m_after at t_switch: r is constant and u = p + i (q − m/Ω) turns as e^{iΩt},
+    Ω = (C − A) r / A (ṗ = −Ω q + m, q̇ = Ω p), p and q continuous at the switch."""
+    p0, q0, r0 = omega0
+    u_switch = (p0 + 1j * (q0 - m_before / big_omega)) * np.exp(1j * big_omega * t_switch)
+    p_s, q_s = u_switch.real, u_switch.imag + m_before / big_omega
+    before = (p0 + 1j * (q0 - m_before / big_omega)) * np.exp(1j * big_omega * t)
+    after = (p_s + 1j * (q_s - m_after / big_omega)) * np.exp(1j * big_omega * (t - t_switch))
+    p = np.where(t <= t_switch, before.real, after.real)
+    q = np.where(t <= t_switch, before.imag + m_before / big_omega, after.imag + m_after / big_omega)
+    return np.column_stack([p, q, np.full_like(t, r0)])
+
+
+@pytest.mark.parametrize("text, before, after", [("0.01*sign(t - 1.3)", -1.0, 1.0), ("0.01*sign(1.3 - t)", 1.0, -1.0)])
+def test_taylor_takes_a_signs_new_branch_on_the_step_after_its_switch(text, before, after):
+    """The step that starts at a switch of sign(u) has u⁽⁰⁾ = 0 or, truncated, on the old side:
+    it must take the branch the switch leads to (``switch_limit`` forces it), as abs, min and max
+    do.  sign took sign(u⁽⁰⁾), so that step ran with the old torque or none: ω off by 3e-2 of its
+    size at every tolerance.  Bound: 10·rtol of max |ω| against the closed form."""
+    moments, omega0, rtol = (0.01, 0.01, 0.02), (0.3, -0.2, 5.0), 1e-10
+    for method in ("taylor", "auto"):
+        sc = parse_scenario({"body": {"principal_moments": list(moments)}, "initial": {"omega": list(omega0)},
+                             "loads": [{"type": "expression", "frame": "body", "torque": [text, "0", "0"]}],
+                             "time": {"end": 5.0, "sample_rate": 100}, "solver": {"method": method, "rtol": rtol}})
+        traj = rotlab.simulate(sc)
+        assert traj.stats.method == "taylor", traj.stats.reason
+        t = np.linspace(0.0, 5.0, 501)
+        exact = _switched_torque_exact(t, omega0, (moments[2] - moments[0]) * omega0[2] / moments[0], before, after, 1.3)
+        error = float(np.max(np.abs(traj.omega - exact)))
+        assert error < 10 * rtol * float(np.max(np.abs(exact))), (method, error)
+
+
 def test_taylor_coefficients_of_an_expression_scene_are_the_rhs():
     """X[1] of the taylor kernel equals f(t, y) to 1e-14 with every input variable in use."""
     from rotlab.core import taylor

@@ -282,8 +282,8 @@ def _unary_series(o, arg, i, a, x, tape, k):
             _switch(tape, x, a, -1, u0)
         if o == ABS:
             tape[i, k] = tape[x, SIDE] * tape[a, k]
-        else:
-            tape[i, k] = sign(u0) if k == 0 else 0.0
+        else:  # the branch's sign, not sign(u⁽⁰⁾): a step that starts at the switch has u⁽⁰⁾ = 0 or on the old side
+            tape[i, k] = tape[x, SIDE] if k == 0 else 0.0
     elif o == POWI:
         m = abs(arg)
         if m == 0:
