@@ -7,9 +7,13 @@ sweep's method and settings.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
+import pytest
 
 import rotlab
+from rotlab.errors import InputError
 from rotlab.methods.base import Settings
 from rotlab.methods.choose import ACCURACY_FACTOR, ensemble_choice, work_of, worst_work
 from rotlab.scene.scene import build_scene
@@ -100,23 +104,34 @@ def test_each_case_is_the_case_run_alone_with_the_sweeps_method(write):
         np.testing.assert_array_equal(b.omega, alone.omega)
 
 
-def test_each_cases_spin_is_the_one_its_scenario_gets(write):
-    """The choice reads each case's ω as validation does, whichever order the file gives a
-    whole vector and its components in (grid values are set first, then random draws)."""
-    text = SWEEP.split("[sweep]")[0] + """[sweep]
-seed = 2
-samples = 20
-[sweep.parameters]
-"initial.omega[0]" = { uniform = [1.5, 2.4] }
-"initial.omega" = [[0.5, 0.01, 0.01], [0.1, 1.0, 0.2]]
-"initial.omega[02]" = [0.7]
-"""
+@pytest.mark.parametrize("parameters", [
+    '"initial.omega[0]" = { uniform = [1.5, 2.4] }\n"initial.omega[02]" = [0.7, 0.8]\n',
+    '"initial.omega" = { sphere = 2.0 }\n"body.principal_moments[1]" = [2.0, 2.2]\n',
+])
+def test_each_cases_spin_is_the_one_its_scenario_gets(write, parameters):
+    """The choice reads each case's ω as validation does: components, written with any index
+    spelling, or the whole vector."""
+    text = SWEEP.split("[sweep]")[0] + "[sweep]\nseed = 2\nsamples = 20\n[sweep.parameters]\n" + parameters
     p = plan(write("s.toml", text))
     scene = build_scene(p.base)
     omegas, positions = case_omegas(p, scene.axes)
-    assert positions == list(range(40))
     expected = [build_scene(case_scenario(p.raw, p.base, case, p.source)).omega0 for case in p.cases]
-    np.testing.assert_array_equal(omegas, np.array(expected))
+    np.testing.assert_array_equal(omegas, np.array(expected)[positions])
+
+
+@pytest.mark.parametrize("parameters, key, message", [
+    ('"initial.omega" = { sphere = 10.0 }\n"initial.omega[1]" = [10.0, 1e-3]\n', "initial.omega[1]", "sets part of 'initial.omega'"),
+    ('"initial.omega[2]" = [0.0, 0.01]\n"initial.omega" = [[1.0, 0.0, 0.0]]\n', "initial.omega[2]", "sets part of 'initial.omega'"),
+    ('"initial.omega[2]" = [0.0]\n"initial.omega[02]" = [0.1]\n', "initial.omega[02]", "the same key as 'initial.omega[2]'"),
+])
+def test_a_value_swept_whole_and_in_parts_is_an_input_error(write, parameters, key, message):
+    """One of the two silently overwrote the other (which one depended on their order and kind):
+    cases were duplicates, or a grid was never used."""
+    text = SWEEP.split("[sweep]")[0] + "[sweep]\nsamples = 4\n[sweep.parameters]\n" + parameters
+    if "sphere" not in parameters:
+        text = text.replace("samples = 4\n", "")
+    with pytest.raises(InputError, match=rf"sweep\.parameters\.{re.escape(key)}.*{re.escape(message)}"):
+        plan(write("s.toml", text))
 
 
 def test_the_choice_is_made_for_the_fastest_spin_and_the_closest_approach_to_the_separatrix(write):

@@ -49,6 +49,20 @@ def check_path(base: cfg.Scenario, path: str) -> None:
         obj = getattr(obj, part)
 
 
+def check_overlaps(paths: list[str]) -> None:
+    """No two sweep parameters may set the same value: 'initial.omega' with 'initial.omega[1]'
+    (one silently overwrote the other, depending on the order and on which one was drawn), or
+    'initial.omega[2]' with 'initial.omega[02]'."""
+    parsed = [(path, tuple(parse_key_path(path, f"sweep.parameters.{path}"))) for path in paths]
+    for (a, parts_a), (b, parts_b) in itertools.combinations(parsed, 2):
+        (whole, whole_parts), (part, part_parts) = sorted(((a, parts_a), (b, parts_b)), key=lambda item: len(item[1]))
+        if part_parts[: len(whole_parts)] != whole_parts:
+            continue
+        if len(part_parts) == len(whole_parts):
+            raise InputError(f"sweep.parameters.{part}", f"the same key as '{whole}': give it once")
+        raise InputError(f"sweep.parameters.{part}", f"sets part of '{whole}', which is swept too: sweep the whole value or its parts, not both")
+
+
 def expand(sweep: cfg.Sweep) -> list[Case]:
     grid_keys = [k for k, v in sweep.parameters.items() if isinstance(v, list)]
     random_keys = [k for k, v in sweep.parameters.items() if not isinstance(v, list)]
