@@ -257,7 +257,8 @@ def _switched_torque_exact(t: np.ndarray, omega0, big_omega: float, m_before: fl
     return np.column_stack([p, q, np.full_like(t, r0)])
 
 
-@pytest.mark.parametrize("text, before, after", [("0.01*sign(t - 1.3)", -1.0, 1.0), ("0.01*sign(1.3 - t)", 1.0, -1.0)])
+@pytest.mark.parametrize("text, before, after", [("0.01*sign(t - 1.3)", -1.0, 1.0), ("0.01*sign(1.3 - t)", 1.0, -1.0),
+                                                  ("0.01*sign(t)", 1.0, 1.0), ("0.01*sign(-t)", -1.0, -1.0)])
 def test_taylor_takes_a_signs_new_branch_on_the_step_after_its_switch(text, before, after):
     """The step that starts at a switch of sign(u) has u⁽⁰⁾ = 0 or, truncated, on the old side:
     it must take the branch the switch leads to (``switch_limit`` forces it), as abs, min and max
@@ -274,6 +275,17 @@ def test_taylor_takes_a_signs_new_branch_on_the_step_after_its_switch(text, befo
         exact = _switched_torque_exact(t, omega0, (moments[2] - moments[0]) * omega0[2] / moments[0], before, after, 1.3)
         error = float(np.max(np.abs(traj.omega - exact)))
         assert error < 10 * rtol * float(np.max(np.abs(exact))), (method, error)
+
+
+@pytest.mark.parametrize("text", ["-0.01*sign(omega[0])", "0.01*abs(omega[1])", "0.01*min(omega[0], 0)"])
+def test_taylor_keeps_a_switching_function_that_stays_at_zero_at_zero(text):
+    """A spin exactly about z keeps ω_x = ω_y = 0, so these torques are 0 for ever: sign(0) is 0
+    (as the pointwise formula gives for the other methods), not a side picked at 0."""
+    sc = parse_scenario({"body": {"principal_moments": [0.01, 0.01, 0.02]}, "initial": {"omega": [0.0, 0.0, 5.0]},
+                         "loads": [{"type": "expression", "frame": "body", "torque": [text, "0", "0"]}],
+                         "time": {"end": 3.0, "sample_rate": 10}, "solver": {"method": "taylor", "rtol": 1e-10}})
+    traj = rotlab.simulate(sc)
+    assert np.all(traj.omega[:, :2] == 0.0) and np.all(traj.omega[:, 2] == 5.0)
 
 
 def test_taylor_coefficients_of_an_expression_scene_are_the_rhs():

@@ -151,10 +151,11 @@ IMMEDIATE = 1e-8  # a switch within this fraction of the step: the step starts o
 @njit(cache=True, inline="always")
 def _switch(tape, x, a, b, s0):
     """Record the switching function s = row a − row b (b < 0: row a alone) and its side at τ = 0
-    (the side ``switch_limit`` forced, once, if any)."""
+    (the side ``switch_limit`` forced, once, if any): −1, +1, or 0 when s⁽⁰⁾ = 0 exactly (sign
+    gives 0 there; ``switch_limit`` forces the side s leaves 0 to, if it does in the step)."""
     tape[x, SWITCH_A] = a
     tape[x, SWITCH_B] = b
-    tape[x, SIDE] = tape[x, FORCED] if tape[x, FORCED] != 0.0 else (-1.0 if s0 < 0.0 else 1.0)
+    tape[x, SIDE] = tape[x, FORCED] if tape[x, FORCED] != 0.0 else (-1.0 if s0 < 0.0 else (1.0 if s0 > 0.0 else 0.0))
     tape[x, FORCED] = 0.0
 
 
@@ -164,7 +165,8 @@ def switch_limit(code, start, stop, tape, order, h):
     of ``code[start:stop]`` (abs, sign, min, max), from its series: 32 samples, then bisection.
     A change within ``IMMEDIATE`` · h means the step starts at the switch (the previous one
     ended there, the series' truncation put s⁽⁰⁾ on the old side): the other side is forced and
-    −1 returned — the series must be formed again."""
+    −1 returned — the series must be formed again.  From s⁽⁰⁾ = 0 exactly (side 0) the change is
+    s leaving 0, and the side forced is the one it leaves to; an s that stays 0 keeps side 0."""
     base = code.shape[0]
     full = h
     again = False
@@ -177,7 +179,7 @@ def switch_limit(code, start, stop, tape, order, h):
         lo, hi = 0.0, -1.0
         for j in range(1, 33):
             tau = h * j / 32.0
-            if side * _switch_value(tape, a, b, order, tau) < 0.0:
+            if _switched(side, _switch_value(tape, a, b, order, tau)):
                 hi = tau
                 break
             lo = tau
@@ -187,16 +189,22 @@ def switch_limit(code, start, stop, tape, order, h):
             mid = 0.5 * (lo + hi)
             if mid <= lo or mid >= hi:
                 break
-            if side * _switch_value(tape, a, b, order, mid) < 0.0:
+            if _switched(side, _switch_value(tape, a, b, order, mid)):
                 hi = mid
             else:
                 lo = mid
         if hi < IMMEDIATE * full:
-            tape[x, FORCED] = -side
+            tape[x, FORCED] = -side if side != 0.0 else (1.0 if _switch_value(tape, a, b, order, hi) > 0.0 else -1.0)
             again = True
         else:
             h = min(h, hi)
     return -1.0 if again else h
+
+
+@njit(cache=True, inline="always")
+def _switched(side, value):
+    """Whether s = ``value`` is past a switch from ``side``: on the other side, or off 0 for side 0."""
+    return side * value < 0.0 if side != 0.0 else value != 0.0
 
 
 @njit(cache=True, inline="always")
@@ -282,7 +290,7 @@ def _unary_series(o, arg, i, a, x, tape, k):
             _switch(tape, x, a, -1, u0)
         if o == ABS:
             tape[i, k] = tape[x, SIDE] * tape[a, k]
-        else:  # the branch's sign, not sign(u⁽⁰⁾): a step that starts at the switch has u⁽⁰⁾ = 0 or on the old side
+        else:  # the branch's sign, not sign(u⁽⁰⁾): a step that starts at the switch has u⁽⁰⁾ on the old side
             tape[i, k] = tape[x, SIDE] if k == 0 else 0.0
     elif o == POWI:
         m = abs(arg)
