@@ -250,3 +250,25 @@ def test_taylor_loaded_for_gravity_alone_is_not_ready_for_gravity_with_a_space_t
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
     assert done.stdout.split() == ["False", "True", "False", "True"]
+
+
+@pytest.mark.parametrize("loads, fixed_step", [
+    ([{"type": "pd_control", "kp": 0.05, "kd": 0.01, "target": [0.7071068, 0.0, 0.0, 0.7071068]}], False),
+    ([{"type": "expression", "frame": "body", "torque": ["0.01*sign(t - 1.3)", "0", "0"]}], False),
+    ([{"type": "expression", "frame": "body", "torque": ["0.01*min(omega[0], 0.1)", "0", "abs(q[1])*1e-3"]}], False),
+    ([{"type": "expression", "frame": "body", "torque": ["0.01*sin(t)", "0", "-1e-3*omega[2]"]}], True),
+])
+def test_auto_considers_no_fixed_step_where_a_load_switches_with_no_breakpoint(loads, fixed_step):
+    """A fixed step crosses a jump or kink of the torque (abs, sign, min, max; pd_control's
+    sgn δ₀) at low order: in a fresh process auto chose rk4 (h = 1.25 ms) for a pd_control scene
+    at rtol 1e-10 and was 1e-4 off.  Such scenes leave rk4 out and say why; smooth ones keep it."""
+    from tests.helpers import scenario
+
+    sc = scenario(body={"principal_moments": [0.01, 0.01, 0.02]}, initial={"omega": [0.3, -0.2, 5.0]}, loads=loads,
+                  time={"end": 5.0, "sample_rate": 100})
+    scene = build_scene(sc)
+    t = sc.time.sample_times()
+    offered = {e.method for e in candidates(scene, Settings(rtol=1e-10), work_of(scene, t))}
+    assert ("rk4" in offered) == fixed_step
+    _, why, _ = choose_method(scene, "auto", Settings(rtol=1e-10), t)
+    assert ("no fixed-step method: a load switches" in why) != fixed_step

@@ -39,6 +39,7 @@ from rotlab.errors import InputError
 from rotlab.methods import cost
 from rotlab.methods.base import Method, Settings
 from rotlab.methods.registry import METHOD_MODULES, get_method
+from rotlab.scene.loads import has_switches
 from rotlab.scene.scene import LAGRANGE, TORQUE_FREE, Scene
 
 ACCURACY_FACTOR = 10.0  # "meets rtol": expected max error ≤ this × rtol
@@ -143,6 +144,13 @@ def _breakpoints(scene: Scene) -> np.ndarray:
     return breakpoints(scene.loads)
 
 
+def _smooth_loads(scene: Scene) -> bool:
+    """No torque that jumps or kinks where no breakpoint marks it (abs, sign, min, max in an
+    expression load, ``pd_control``): a fixed step crosses such a switch at low order (``rk4`` at
+    h = 1.25 ms was 1e-4 off with ``pd_control`` at rtol 1e-10), ``taylor`` and ``dop853`` stop at it."""
+    return not scene.shared("load switches", lambda: has_switches(scene.loads))
+
+
 def candidates(scene: Scene, settings: Settings, work: cost.Work) -> list[cost.Estimate]:
     """Every method ``auto`` considers for this scene, with its expected cost and error."""
     rtol, order = settings.rtol, settings.order
@@ -153,11 +161,12 @@ def candidates(scene: Scene, settings: Settings, work: cost.Work) -> list[cost.E
     if order is None or TAYLOR_ORDER_RANGE[0] <= order <= TAYLOR_ORDER_RANGE[1]:
         out.append(cost.taylor_estimate(order, tolerance, work))
     target = rtol / work.amplification  # the fixed-step methods' probes aim at rtol itself
+    smooth = _smooth_loads(scene)
     if scene.kind == TORQUE_FREE:
         out += [cost.fixed_step_estimate("dmv", k, k, target, work) for k in DMV_ORDERS if order in (None, k)]
-    elif not scene.has_work:  # (on a free body dmv is cheaper at every order: same accuracy, cheaper steps)
+    elif not scene.has_work and smooth:  # (on a free body dmv is cheaper at every order: same accuracy, cheaper steps)
         out += [cost.fixed_step_estimate("splitting", k, k, target, work, probe=True) for k in SPLITTING_ORDERS if order in (None, k)]
-    if order is None:
+    if order is None and smooth:
         out.append(cost.fixed_step_estimate("rk4", None, 4, target, work, step_limit=2.8, probe=True))
     return out
 
@@ -320,6 +329,8 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray, work: cost.Work | Non
     compared = "; ".join(f"{e.label} {_seconds(e.seconds)}" + ("" if e.error <= ACCURACY_FACTOR * settings.rtol else f" (error ~{e.error:.0e})")
                          for e in others)
     floor = f"; stepping error floor near the separatrix ~{work.floor:.0e}" if work.floor > 1e-3 * settings.rtol else ""
+    if not _smooth_loads(scene):
+        floor += "; no fixed-step method: a load switches (abs, sign, min or max) where no breakpoint marks it"
     if not all(loaded[e.method] for e in estimates):
         floor += "; the stepping methods' times include loading their numba kernel " + ("in each worker process" if fresh else "in this process")
     why = (f"auto: {best.label}, expected {_seconds(best.seconds)}: {verdict}"

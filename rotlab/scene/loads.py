@@ -363,6 +363,15 @@ def _expression_windows(loads: LoadArrays) -> np.ndarray:
     return loads.expressions.rows[:, [EX_ON, EX_OFF]]
 
 
+def has_switches(loads: LoadArrays) -> bool:
+    """True when an expression load uses abs, sign, min or max (``pd_control`` included): a
+    torque that jumps or kinks where no breakpoint marks it.  A fixed step runs across such a
+    switch at low order, whatever its probe measured between switches."""
+    if loads.expressions is None:
+        return False
+    return bool(np.isin(loads.expressions.code[:, 0], [opcodes.ABS, opcodes.SIGN, opcodes.MIN, opcodes.MAX]).any())
+
+
 def active_forces(loads: LoadArrays) -> np.ndarray:
     """Rows of ``loads.forces`` that can exert a torque (non-zero arm and force)."""
     f = loads.forces
