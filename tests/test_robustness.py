@@ -124,3 +124,21 @@ def test_dop853_counts_rejected_steps_against_a_calls_budget():
     status, i, t, h = dop853.dop853_advance(y, 0.0, 10.0, times, out, 1, 10.0, 1e-10, 1e-12, 3, scene.model, counters)
     assert status == dop853.OK and counters[1] >= 1
     assert counters[0] + counters[1] == 3
+
+
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_an_adaptive_runs_step_budget_message_names_how_far_its_steps_got(method):
+    """A fast-growing spin from t = 0 (tiny moments, a torque growing with ω) exhausts the step
+    budget long before the first sample at 0.01 s: the message names the integrator's time, not
+    the last sample's (it said "exhausted at t = 0 s")."""
+    from rotlab.config import parse_scenario
+
+    sc = parse_scenario({"body": {"principal_moments": [1e-12, 1.5e-12, 2e-12]}, "initial": {"omega": [0.3, 0.2, 5.0]},
+                         "loads": [{"type": "expression", "frame": "body",
+                                    "torque": ["omega[1]*omega[2]*1e-10", "omega[0]**2*1e-11", "1"]}],
+                         "time": {"end": 5.0}, "solver": {"method": method, "max_steps": 1000}})
+    traj = rotlab.simulate(sc, check=False)
+    failure = traj.stats.failure
+    assert failure.startswith("step budget of 1,000 steps exhausted at t = ") and len(traj.omega) == 1
+    reached = float(failure.split("at t = ")[1].split(" s")[0])
+    assert 0.0 < reached < 0.01

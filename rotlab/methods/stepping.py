@@ -115,13 +115,15 @@ def run_chunks(
     max_steps: int,
     progress: ProgressCallback | None,
     describe_failure: Callable[[int, np.ndarray, np.ndarray, int], str],
+    integrator_time: Callable[[], float] | None = None,
 ) -> Solution:
     """Call ``advance`` until every sample is written, a failure, the step budget, the
     wall-clock limit or Ctrl-C; ``y`` is the state at ``t[0]`` (advanced in place by the kernel).
 
     ``describe_failure(status, times, out, i)`` words a non-zero status; i is the number of valid
     rows of the window (``out`` row i − 1 is the last valid state, at ``times[i − 1]``).  A KeyboardInterrupt ends the run cleanly,
-    keeping the samples written so far.
+    keeping the samples written so far.  ``integrator_time()`` (adaptive methods): how far the
+    steps got, named when the step budget or the time limit stops them between two samples.
     """
     control = current_control()
     n = t.shape[0]
@@ -130,16 +132,17 @@ def run_chunks(
     out[0] = y
     base, hi = 0, min(n, WINDOW + 1) if streamed else n  # the window: global samples [base, hi), out row 0 = base
     i, steps, failure, interrupted = 1, 0, None, False
+    now = integrator_time or (lambda: float(t[i - 1]))
     try:
         if streamed:  # the first row can flush (a kernel that took > FLUSH_SECONDS to load): Ctrl-C there too
             control.consumer.rows(0, t[:1], out[:1])
         while i < n:
             budget = min(CHUNK_STEPS, max_steps - steps)
             if budget <= 0:
-                failure = f"step budget of {max_steps:,} steps exhausted at t = {t[i - 1]:.9g} s (raise solver.max_steps)"
+                failure = f"step budget of {max_steps:,} steps exhausted at t = {now():.9g} s (raise solver.max_steps)"
                 break
             if control.deadline is not None and time.monotonic() > control.deadline:
-                failure = timeout_message(control, t[i - 1])
+                failure = timeout_message(control, now())
                 break
             times, window = t[base:hi], out[: hi - base]
             status, local, taken = advance(times, window, i - base, budget)
@@ -150,7 +153,7 @@ def run_chunks(
                 failure = describe_failure(status, times, window, valid)
                 done = base + valid
             elif taken == 0 and done == i:  # the rest of the budget is less than the next sample needs
-                failure = f"step budget of {max_steps:,} steps exhausted at t = {t[i - 1]:.9g} s (raise solver.max_steps)"
+                failure = f"step budget of {max_steps:,} steps exhausted at t = {now():.9g} s (raise solver.max_steps)"
             if streamed and done > i:
                 control.consumer.rows(i, t[i:done], window[i - base : done - base])
             i = done
