@@ -155,7 +155,7 @@ def _switch(tape, x, a, b, s0):
     gives 0 there; ``switch_limit`` forces the side s leaves 0 to, if it does in the step)."""
     tape[x, SWITCH_A] = a
     tape[x, SWITCH_B] = b
-    tape[x, SIDE] = tape[x, FORCED] if tape[x, FORCED] != 0.0 else (-1.0 if s0 < 0.0 else (1.0 if s0 > 0.0 else 0.0))
+    tape[x, SIDE] = tape[x, FORCED] if tape[x, FORCED] != 0.0 else sign(s0)
     tape[x, FORCED] = 0.0
 
 
@@ -194,7 +194,7 @@ def switch_limit(code, start, stop, tape, order, h):
             else:
                 lo = mid
         if hi < IMMEDIATE * full:
-            tape[x, FORCED] = -side if side != 0.0 else (1.0 if _switch_value(tape, a, b, order, hi) > 0.0 else -1.0)
+            tape[x, FORCED] = -side if side != 0.0 else sign(_switch_value(tape, a, b, order, hi))  # ≠ 0 there
             again = True
         else:
             h = min(h, hi)

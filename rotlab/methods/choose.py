@@ -161,12 +161,11 @@ def candidates(scene: Scene, settings: Settings, work: cost.Work) -> list[cost.E
     if order is None or TAYLOR_ORDER_RANGE[0] <= order <= TAYLOR_ORDER_RANGE[1]:
         out.append(cost.taylor_estimate(order, tolerance, work))
     target = rtol / work.amplification  # the fixed-step methods' probes aim at rtol itself
-    smooth = _smooth_loads(scene)
     if scene.kind == TORQUE_FREE:
         out += [cost.fixed_step_estimate("dmv", k, k, target, work) for k in DMV_ORDERS if order in (None, k)]
-    elif not scene.has_work and smooth:  # (on a free body dmv is cheaper at every order: same accuracy, cheaper steps)
+    elif not scene.has_work:  # (on a free body dmv is cheaper at every order: same accuracy, cheaper steps; expression loads do work)
         out += [cost.fixed_step_estimate("splitting", k, k, target, work, probe=True) for k in SPLITTING_ORDERS if order in (None, k)]
-    if order is None and smooth:
+    if order is None and _smooth_loads(scene):
         out.append(cost.fixed_step_estimate("rk4", None, 4, target, work, step_limit=2.8, probe=True))
     return out
 

@@ -133,13 +133,17 @@ def run_chunks(
     base, hi = 0, min(n, WINDOW + 1) if streamed else n  # the window: global samples [base, hi), out row 0 = base
     i, steps, failure, interrupted = 1, 0, None, False
     now = integrator_time or (lambda: float(t[i - 1]))
+
+    def exhausted() -> str:
+        return f"step budget of {max_steps:,} steps exhausted at t = {now():.9g} s (raise solver.max_steps)"
+
     try:
         if streamed:  # the first row can flush (a kernel that took > FLUSH_SECONDS to load): Ctrl-C there too
             control.consumer.rows(0, t[:1], out[:1])
         while i < n:
             budget = min(CHUNK_STEPS, max_steps - steps)
             if budget <= 0:
-                failure = f"step budget of {max_steps:,} steps exhausted at t = {now():.9g} s (raise solver.max_steps)"
+                failure = exhausted()
                 break
             if control.deadline is not None and time.monotonic() > control.deadline:
                 failure = timeout_message(control, now())
@@ -153,7 +157,7 @@ def run_chunks(
                 failure = describe_failure(status, times, window, valid)
                 done = base + valid
             elif taken == 0 and done == i:  # the rest of the budget is less than the next sample needs
-                failure = f"step budget of {max_steps:,} steps exhausted at t = {now():.9g} s (raise solver.max_steps)"
+                failure = exhausted()
             if streamed and done > i:
                 control.consumer.rows(i, t[i:done], window[i - base : done - base])
             i = done

@@ -94,7 +94,7 @@ def shared_choice(p: SweepPlan) -> SharedChoice | None:
 def case_omegas(p: SweepPlan, axes: np.ndarray) -> tuple[np.ndarray, list[int]]:
     """(the initial ω of each case, principal frame, as rows; each row's position in
     ``p.cases``).  A case whose ω is not three finite numbers is left out (its worker reports
-    the error).  The values are set in the order the case applies them (``sweep.cases.apply``)."""
+    the error).  ω is swept whole or by components, never both (``sweep.cases.check_overlaps``)."""
     base = [float(x) for x in p.base.initial.omega]
     parts = {path: parse_key_path(path, path) for path in p.base.sweep.parameters}
     swept = {path: part[2:] for path, part in parts.items() if part[:2] == ["initial", "omega"]}  # → [] or [k]
