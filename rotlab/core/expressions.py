@@ -101,7 +101,7 @@ def powi(x, n):
             r *= b
         b *= b
         m >>= 1
-    return 1.0 / r if n < 0 else r
+    return safe_div(1.0, r) if n < 0 else r
 
 
 @njit(cache=True)

@@ -15,11 +15,14 @@ nothing (``overload`` specialises on the type, and numba caches each specialisat
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
 from rotlab.core.expressions import call_formulas, series_step, switch_limit
+from rotlab.core.faults import FORMULA_NOT_FINITE, record
 from rotlab.core.quaternion import N_PRODUCTS, qmul, rotate_quadratic, rotate_to_body
 from rotlab.core.state import P0, Q0
 
@@ -424,6 +427,21 @@ def _expression_series_impl(k, t, X, P, ex, inputs, tape, stack):
     return impl
 
 
+@njit(cache=True)
+def _check_series(k, t, X, tape, rx, ry, rz, load, axes, axes_q):
+    """Record a fault (``rotlab.core.faults``) when coefficient k of a component of expression load
+    ``load`` is not finite while the state at the step's start is: the formula is not finite
+    (k = 0) or has no Taylor series (k ≥ 1: not smooth) at t.  The order k is the detail."""
+    for c in range(3):
+        row = rx if c == 0 else (ry if c == 1 else rz)
+        if math.isfinite(tape[row, k]) or (k > 0 and not math.isfinite(tape[row, 0])):  # (order 0 said it)
+            continue
+        w0, w1, w2 = _to_user(axes, X[0, P0], X[0, P0 + 1], X[0, P0 + 2])
+        q0, q1, q2, q3 = _to_user_quaternion(axes_q, X[0, Q0], X[0, Q0 + 1], X[0, Q0 + 2], X[0, Q0 + 3])
+        record(FORMULA_NOT_FINITE, load, c, t, w0, w1, w2, q0, q1, q2, q3, float(k))
+        return
+
+
 def switch_step(t, model, tape, order, h):
     """h, shortened so that the step from t ends just past the first switch of an abs, sign,
     min or max of an active expression load; −1 when the series must be formed again with a
@@ -500,6 +518,7 @@ def expression_series(k, t, X, P, rows, code, consts, axes, axes_q, moments, inp
         rx = series_step(code, consts, int(row[p]), int(row[p + 1]), k, inputs, tape, stack)
         ry = series_step(code, consts, int(row[p + 2]), int(row[p + 3]), k, inputs, tape, stack)
         rz = series_step(code, consts, int(row[p + 4]), int(row[p + 5]), k, inputs, tape, stack)
+        _check_series(k, t, X, tape, rx, ry, rz, r, axes, axes_q)
         if row[EX_FRAME] != 0.0:
             vx, vy, vz = tape[rx, k], tape[ry, k], tape[rz, k]
             for j in range(k + 1):

@@ -41,7 +41,7 @@ class DOP853:
         def describe(status: int, times: np.ndarray, out: np.ndarray, i: int) -> str:
             return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], times, i, out)
 
-        solution = run_chunks(t, y, advance, settings.max_steps, progress, describe, lambda: clock["t"])
+        solution = run_chunks(t, y, advance, settings.max_steps, progress, describe, lambda: clock["t"], explain_fault=scene.explain_fault)
         solution.steps = int(counters[0])
         solution.rejected_steps = int(counters[1])
         solution.rhs_evaluations = int(counters[2])

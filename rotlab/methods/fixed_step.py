@@ -124,7 +124,8 @@ class FixedStepMethod:
         model, extra = scene.model, self.kernel_args(scene, order)
         advance = _long_samples(self.kernel, y, substeps, (model, *extra)) if substeps > CHUNK_STEPS else (
             lambda times, out, i, budget: self.kernel(y, times, out, i, substeps, budget, model, *extra))
-        solution = run_chunks(t, y, advance, settings.max_steps, progress, lambda status, times, out, i: nonfinite_message(times, i, out))
+        solution = run_chunks(t, y, advance, settings.max_steps, progress, lambda status, times, out, i: nonfinite_message(times, i, out),
+                              explain_fault=scene.explain_fault)
         solution.rhs_evaluations = self.evaluations_per_step(scene, order) * solution.steps
         solution.details = {"step": interval / substeps, "steps per sample": substeps, "order": order,
                             "step from": "solver.step" if settings.step is not None else f"rtol = {settings.rtol:g}"}

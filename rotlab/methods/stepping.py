@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Callable, Iterator, Protocol
 import numpy as np
 
 from rotlab import interrupts
+from rotlab.core import faults
 from rotlab.core.dynamics import STATE_SIZE
 from rotlab.methods.base import ProgressCallback, Solution
 
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
 Chunk = Callable[[np.ndarray, np.ndarray, int, int], tuple[int, int, int]]
 
 CHUNK_STEPS = 1 << 18
+STALL_FACTOR = 10  # an adaptive run whose pace needs this many times the steps it has left stops (``stall_message``)
 WINDOW = 1 << 14  # samples per window when streaming (8 doubles each: 1 MB)
 
 
@@ -116,12 +118,15 @@ def run_chunks(
     progress: ProgressCallback | None,
     describe_failure: Callable[[int, np.ndarray, np.ndarray, int], str],
     integrator_time: Callable[[], float] | None = None,
+    explain_fault: Callable[[faults.Fault], str] | None = None,
 ) -> Solution:
     """Call ``advance`` until every sample is written, a failure, the step budget, the
     wall-clock limit or Ctrl-C; ``y`` is the state at ``t[0]`` (advanced in place by the kernel).
 
     ``describe_failure(status, times, out, i)`` words a non-zero status; i is the number of valid
-    rows of the window (``out`` row i − 1 is the last valid state, at ``times[i − 1]``).  A KeyboardInterrupt ends the run cleanly,
+    rows of the window (``out`` row i − 1 is the last valid state, at ``times[i − 1]``); when a
+    compiled load recorded a fault (``rotlab.core.faults``), ``explain_fault(fault)`` words it
+    instead: that load stopped the run.  A KeyboardInterrupt ends the run cleanly,
     keeping the samples written so far.  ``integrator_time()`` (adaptive methods): how far the
     steps got, named when the step budget or the time limit stops them between two samples.
     """
@@ -137,6 +142,7 @@ def run_chunks(
     def exhausted() -> str:
         return f"step budget of {max_steps:,} steps exhausted at t = {now():.9g} s (raise solver.max_steps)"
 
+    faults.clear()
     try:
         if streamed:  # the first row can flush (a kernel that took > FLUSH_SECONDS to load): Ctrl-C there too
             control.consumer.rows(0, t[:1], out[:1])
@@ -149,12 +155,15 @@ def run_chunks(
                 failure = timeout_message(control, now())
                 break
             times, window = t[base:hi], out[: hi - base]
+            start = now()
             status, local, taken = advance(times, window, i - base, budget)
             steps += taken
             done = base + local
+            if status == 0 and integrator_time is not None and taken >= budget:
+                failure = stall_message(start, now(), taken, float(t[n - 1]), max_steps - steps, max_steps)
             if status != 0:
                 valid = _valid_rows(window, local)  # a kernel may have written non-finite rows before it stopped
-                failure = describe_failure(status, times, window, valid)
+                failure = _failure_words(faults.take(), explain_fault) or describe_failure(status, times, window, valid)
                 done = base + valid
             elif taken == 0 and done == i:  # the rest of the budget is less than the next sample needs
                 failure = exhausted()
@@ -172,6 +181,30 @@ def run_chunks(
         failure, interrupted = interrupts.stopped_at(t[i - 1]), True
     state = out[: i - base] if streamed else out
     return Solution(t=t, state=state, valid=i, steps=steps, failure=failure, interrupted=interrupted)
+
+
+def stall_message(t_from: float, t_to: float, taken: int, t_end: float, steps_left: int, max_steps: int) -> str | None:
+    """Why an adaptive run cannot finish, judged after a chunk that used its whole budget: at the
+    chunk's pace ((t_to − t_from) / taken per step) the rest of the span needs more than
+    ``STALL_FACTOR`` times the steps left in ``solver.max_steps`` (a step size collapsed at a
+    singular or chattering load, or an absurd scene); None while it can."""
+    pace = (t_to - t_from) / taken
+    needed = (t_end - t_to) / pace if pace > 0.0 else float("inf")
+    if needed <= STALL_FACTOR * steps_left:
+        return None
+    return (f"no progress: {taken:,} steps advanced t only from {t_from:.9g} s to {t_to:.9g} s (mean step {pace:.3g} s); "
+            f"the remaining {t_end - t_to:.6g} s would take ~{needed:.2g} steps, beyond solver.max_steps = {max_steps:,} "
+            "(a load that is singular or switches back and forth there, a stiff scene, or tolerances too tight)")
+
+
+def _failure_words(fault: faults.Fault | None, explain_fault: Callable[[faults.Fault], str] | None) -> str | None:
+    """The words of a compiled load's fault, if one stopped the kernel; a Ctrl-C that a Python
+    torque caught inside the kernel is raised here (when SIGINT has no Python handler to do it)."""
+    if fault is None:
+        return None
+    if fault.kind == faults.INTERRUPTED:
+        raise KeyboardInterrupt
+    return explain_fault(fault) if explain_fault is not None else None
 
 
 def evaluate_in_windows(t: np.ndarray, evaluate: Callable[[np.ndarray], np.ndarray], progress: ProgressCallback | None) -> Solution:

@@ -58,7 +58,7 @@ class Taylor:
         def describe(status: int, times: np.ndarray, out: np.ndarray, i: int) -> str:
             return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], times, i, out)
 
-        solution = run_chunks(t, y, advance, settings.max_steps, progress, describe, lambda: clock["t"])
+        solution = run_chunks(t, y, advance, settings.max_steps, progress, describe, lambda: clock["t"], explain_fault=scene.explain_fault)
         solution.steps = int(counters[0])
         solution.details = {"order": order, "rtol": settings.rtol, "atol": settings.atol}
         return solution

@@ -33,11 +33,13 @@ import math
 from numba import cfunc
 
 from rotlab.core.expressions import EXPRESSION_SIGNATURE, powi, safe_div, safe_log, safe_pow, safe_sqrt, sign
+from rotlab.core.faults import checked_formula
 
 
 @cfunc(EXPRESSION_SIGNATURE, cache=True)
 def formulas(load, component, {args}):
 '''
+_STATE_INPUTS = "x0, x1, x2, x3, x4, x5, x6, x7"  # t, ω, Λ: what a fault records
 _memo: dict[str, Any] = {}  # also keeps each compiled function alive: kernels hold only its address
 
 
@@ -68,7 +70,8 @@ def module_source(loads: list[list[Program]]) -> str:
     for k, programs in enumerate(loads):
         lines.append(f"    if load == {k}:\n")
         for c, program in enumerate(programs):
-            lines.append(f"        if component == {c}:\n            return {source_of(program)}\n")
+            value = f"checked_formula({source_of(program)}, {k}, {c}, {_STATE_INPUTS})"
+            lines.append(f"        if component == {c}:\n            return {value}\n")
     lines.append("    return 0.0\n")
     return "".join(lines)
 

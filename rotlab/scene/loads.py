@@ -36,6 +36,7 @@ from rotlab.core.expressions import aux_rows
 from rotlab.core.torques import EX_COLUMNS, EX_FORCE, EX_FRAME, EX_OFF, EX_ON, EX_POINT, EX_PROGRAMS, EX_RATE, EX_UP, EX_UP2
 
 BODY, SPACE = 0.0, 1.0
+UNNAMED = ("formula x", "formula y", "formula z")  # what a failure calls a formula built without names
 
 
 class Expressions(NamedTuple):
@@ -84,6 +85,8 @@ class LoadArrays(NamedTuple):
     damping: float  # k, N·m·s
     expressions: Expressions | None
     user: UserTorque | None = None
+    formula_names: tuple[tuple[str, str, str], ...] = ()  # per expression row: what each component is, for failures
+    user_function: Callable | None = None  # the Python function behind ``user``, for its failures
 
 
 class Model(NamedTuple):
@@ -129,10 +132,12 @@ class ProgramBuilder:
         self.consts: list[float] = []
         self.depth = 1
         self.programs: list[list[formulas.Program]] = []
+        self.names: list[tuple[str, str, str]] = []
 
     def add(self, programs: list[tuple[formulas.Program, int]], frame: float, window: tuple[float, float],
-            point: np.ndarray | None = None, up: np.ndarray = np.array([0.0, 0.0, 1.0]),
-            up2: np.ndarray = np.zeros(3), rate: float = 0.0) -> None:
+            point: np.ndarray | None = None, up: np.ndarray = np.array([0.0, 0.0, 1.0]), up2: np.ndarray = np.zeros(3),
+            rate: float = 0.0, names: tuple[str, str, str] = UNNAMED) -> None:
+        """One expression load; ``names`` says what each component is (failure messages)."""
         row = np.zeros(EX_COLUMNS)
         row[EX_FRAME], row[EX_ON], row[EX_OFF] = frame, window[0], window[1]
         if point is not None:
@@ -152,6 +157,7 @@ class ProgramBuilder:
             self.depth = max(self.depth, depth)
         self.rows.append(row)
         self.programs.append([program for program, _ in programs])
+        self.names.append(names)
 
     def formulas(self, texts: list[str], constants: dict[str, float], frame: float, window: tuple[float, float], **kw) -> None:
         self.add([formulas.parse_formula(text, constants) for text in texts], frame, window, **kw)
@@ -171,7 +177,8 @@ def _quaternion_of(axes: np.ndarray) -> np.ndarray:
     return np.asarray(from_matrix(axes), dtype=float)
 
 
-def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray, user: UserTorque | None = None) -> LoadArrays:
+def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray, user: UserTorque | None = None,
+                  user_function: Callable | None = None) -> LoadArrays:
     """Turn the scenario's loads into arrays; body-frame vectors are rotated by Pᵀ = ``axes.T``
     into the principal frame (space-frame vectors are unchanged)."""
     to_principal = axes.T
@@ -192,14 +199,15 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray,
     def window(w: cfg.Window | None) -> tuple[float, float]:
         return (-np.inf, np.inf) if w is None else (w.on, w.off)
 
-    for load in scenario.loads:
+    for index, load in enumerate(scenario.loads):
+        names = _component_names(index, load)
         if isinstance(load, cfg.Gravity):
             mass = scenario.body.mass or 0.0
             forces.append(np.concatenate([body_vector(scenario.body.center_of_mass), mass * np.asarray(load.g)]))
         elif isinstance(load, cfg.Force) and load.frame == "space" and load.window is None:
             forces.append(np.concatenate([body_vector(load.point), np.asarray(load.value, dtype=float)]))
         elif isinstance(load, cfg.Force) and load.frame == "space":  # switched on and off: does work
-            programs.formulas([repr(float(v)) for v in load.value], {}, SPACE, window(load.window), point=body_vector(load.point))
+            programs.formulas([repr(float(v)) for v in load.value], {}, SPACE, window(load.window), point=body_vector(load.point), names=names)
         elif isinstance(load, cfg.Force):  # body-frame force: a constant follower torque p × F
             moment = np.cross(body_vector(load.point), body_vector(load.value))
             terms.append(_term(BODY, window(load.window), moment, np.zeros(3), 0.0, 0.0))
@@ -225,17 +233,17 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray,
             frame = BODY if load.frame == "body" else SPACE
             point = None if load.point is None else body_vector(load.point)
             up = np.asarray(load.up, dtype=float)
-            programs.add(load.programs(), frame, window(load.window), point=point, up=up / np.linalg.norm(up))
+            programs.add(load.programs(), frame, window(load.window), point=point, up=up / np.linalg.norm(up), names=names)
         elif isinstance(load, cfg.PDControl):
-            programs.formulas(*_pd_control(load), BODY, window(load.window))
+            programs.formulas(*_pd_control(load), BODY, window(load.window), names=names)
         elif isinstance(load, cfg.QuadraticDrag):  # −c |ω| ω
             texts = [f"-c*sqrt(omega[0]**2 + omega[1]**2 + omega[2]**2)*omega[{i}]" for i in range(3)]
-            programs.formulas(texts, {"c": load.coefficient}, BODY, window(load.window))
+            programs.formulas(texts, {"c": load.coefficient}, BODY, window(load.window), names=names)
         elif isinstance(load, cfg.GravityGradient):
             vertical = np.asarray(load.vertical, dtype=float) / np.linalg.norm(load.vertical)
             normal = np.asarray(load.orbit_normal, dtype=float) / np.linalg.norm(load.orbit_normal)
             programs.formulas(*_gravity_gradient(load, _user_inertia(scenario.body)), BODY, (-np.inf, np.inf),
-                              up=vertical, up2=np.cross(normal, vertical), rate=load.orbit_rate)
+                              up=vertical, up2=np.cross(normal, vertical), rate=load.orbit_rate, names=names)
     return LoadArrays(
         forces=np.array(forces, dtype=float).reshape(-1, 6),
         terms=np.array(terms, dtype=float).reshape(-1, 11),
@@ -245,17 +253,34 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray,
         damping=float(damping),
         expressions=programs.build(axes, moments),
         user=user,
+        formula_names=tuple(programs.names),
+        user_function=None if user is None else user_function,
     )
 
 
+def _component_names(index: int, load: cfg.Load) -> tuple[str, str, str]:
+    """What each component of a load compiled to a formula is, as a failure message names it:
+    ``loads[0].torque[1] = "t**(-1)"`` for an expression, ``loads[2] (pd_control) torque x`` else."""
+    texts = getattr(load, "torque", None) or getattr(load, "force", None)
+    if isinstance(load, cfg.Expression) and texts is not None:
+        key = "torque" if load.torque is not None else "force"
+        return tuple(f"loads[{index}].{key}[{c}] = {texts[c]!r}" for c in range(3))  # type: ignore[return-value]
+    quantity = "force" if isinstance(load, cfg.Force) else "torque"
+    return tuple(f"loads[{index}] ({load.type}) {quantity} {axis}" for axis in "xyz")  # type: ignore[return-value]
+
+
 def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
-    """``fn(t, q, omega) -> M`` compiled by numba (a plain Python function is jitted) and checked
-    on a sample state; ``InputError`` naming why when numba cannot compile it or M is not 3 numbers.
+    """``fn(t, q, omega) -> M`` compiled by numba (a plain Python function is jitted, with bounds
+    checks) and typed for (float, float64[4], float64[3]); ``InputError`` naming why when numba
+    cannot compile it or M is not three real numbers (a tuple, a list or a 1-D array).
 
     The kernels receive it as a C callback (``numba.cfunc``) of one fixed signature
     (t, Λ, ω, component) → M_component: its type is the same for every function, so the kernels
     stay compiled and cached on disk (a jitted function as a kernel argument would recompile
-    them for each function and write its type into their cache index)."""
+    them for each function and write its type into their cache index).  The callback never
+    raises (a cfunc can only print and swallow an exception): when ``fn`` raises, returns other
+    than 3 values, or a value that is not finite, it records a fault (``rotlab.core.faults``)
+    and returns NaN, so the run stops and says why; it also honours Ctrl-C between calls."""
     import numba
 
     from rotlab.errors import InputError
@@ -265,19 +290,66 @@ def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
     if not callable(fn):
         raise InputError("torque", f"must be a function fn(t, q, omega) -> (Mx, My, Mz), not {type(fn).__name__}")
     name = getattr(fn, "__name__", "torque")
-    jitted = fn if isinstance(fn, numba.core.registry.CPUDispatcher) else numba.njit(fn)
+    jitted = fn if isinstance(fn, numba.core.registry.CPUDispatcher) else numba.njit(boundscheck=True)(fn)
+    args = (numba.types.float64, numba.types.float64[::1], numba.types.float64[::1])
     try:
-        value = jitted(0.0, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3))
+        jitted.compile(args)
+        returned = jitted.overloads[args].signature.return_type
     except numba.core.errors.NumbaError as exc:
         raise InputError("torque", f"numba cannot compile {name}(t, q, omega): {_numba_reason(exc)}") from None
-    if np.shape(value) != (3,):
-        raise InputError("torque", f"{name}(t, q, omega) must return 3 numbers (Mx, My, Mz), got {np.shape(value) or type(value).__name__}")
+    except Exception as exc:  # noqa: BLE001 - numba's typing can raise anything the function's globals do
+        raise InputError("torque", f"numba cannot compile {name}(t, q, omega): {type(exc).__name__}: {exc}"[:300]) from None
+    problem = _return_problem(returned)
+    if problem:
+        raise InputError("torque", f"{name}(t, q, omega) must return 3 real numbers (Mx, My, Mz) as a tuple, list or array; it returns {problem}")
+    return UserTorque(_callback(jitted), BODY if frame == "body" else SPACE, np.ascontiguousarray(axes, dtype=float), _quaternion_of(axes))
+
+
+def _return_problem(returned) -> str | None:
+    """Why numba's type of a Python torque's result is not three real numbers (None when it is:
+    a tuple of 3 integers or floats, or a 1-D array or list of them, whose length is checked
+    at each call)."""
+    from numba import types
+
+    def real(t) -> bool:
+        return isinstance(t, (types.Integer, types.Float)) and not isinstance(t, types.Boolean)
+
+    if isinstance(returned, types.BaseTuple):
+        if len(returned) != 3:
+            return f"{len(returned)} values"
+        bad = [str(t) for t in returned if not real(t)]
+        return f"values of type {', '.join(bad)}" if bad else None
+    if isinstance(returned, types.Array) and returned.ndim == 1 or isinstance(returned, types.List):
+        return None if real(returned.dtype) else f"an array of {returned.dtype}"
+    return f"{returned}"
+
+
+def _callback(jitted: Any) -> Any:
+    """The C callback of a typed Python torque (``user_torque``): M_k at (t, Λ, ω), or NaN and a
+    fault; the values are those ``rotlab.core.faults.record`` keeps (user's body frame)."""
+    import numba
+
+    from rotlab.core import faults
 
     @numba.cfunc(USER_SIGNATURE)
     def callback(t, q0, q1, q2, q3, w0, w1, w2, k):  # pragma: no cover - runs compiled
-        return jitted(t, np.array([q0, q1, q2, q3]), np.array([w0, w1, w2]))[k]
+        if faults.interrupt_requested():
+            return np.nan
+        try:
+            value = jitted(t, np.array([q0, q1, q2, q3]), np.array([w0, w1, w2]))
+        except Exception:  # noqa: BLE001 - numba catches what the function raised, without its type
+            faults.record(faults.CALLABLE_RAISED, 0, k, t, w0, w1, w2, q0, q1, q2, q3, 0.0)
+            return np.nan
+        if len(value) != 3:
+            faults.record(faults.CALLABLE_SHAPE, 0, k, t, w0, w1, w2, q0, q1, q2, q3, float(len(value)))
+            return np.nan
+        mx, my, mz = value
+        m = float(mx) if k == 0 else (float(my) if k == 1 else float(mz))
+        if not np.isfinite(m):
+            faults.record(faults.CALLABLE_NOT_FINITE, 0, k, t, w0, w1, w2, q0, q1, q2, q3, 0.0)
+        return m
 
-    return UserTorque(callback, BODY if frame == "body" else SPACE, np.ascontiguousarray(axes, dtype=float), _quaternion_of(axes))
+    return callback
 
 
 def _numba_reason(exc: Exception) -> str:
@@ -287,7 +359,8 @@ def _numba_reason(exc: Exception) -> str:
     lines = [re.sub(r"\x1b\[[0-9;]*m", "", line).strip() for line in str(exc).splitlines()]
     lines = [line for line in lines if line]
     keys = ("Untyped global name", "No implementation", "Unknown attribute", "Use of unsupported", "Cannot", "Invalid use", "non-precise type")
-    why = next((line for line in lines if any(k in line for k in keys)), lines[0] if lines else "")
+    why = next((line for line in lines if any(k in line for k in keys)), None)
+    why = why or next((line for line in lines if re.match(r"[A-Za-z]+Error: ", line)), lines[0] if lines else "")
     return why[:300]
 
 

@@ -20,7 +20,8 @@ from rotlab.config import models as cfg
 from rotlab.core import quaternion as quat
 from rotlab.core.state import LAMBDA, OMEGA, STATE_SIZE
 from rotlab.core.torques import EX_RATE
-from rotlab.scene import inertia
+from rotlab.core.faults import Fault
+from rotlab.scene import fault_words, inertia
 from rotlab.scene.loads import (
     LoadArrays,
     Model,
@@ -82,6 +83,10 @@ class Scene:
                 _SHARED.pop(next(iter(_SHARED)))
             found = _SHARED[(key, content)] = self.cached(key, build)
         return found
+
+    def explain_fault(self, fault: Fault) -> str:
+        """A run's failure message for the fault one of its compiled loads recorded."""
+        return fault_words.explain(fault, self.loads)
 
     @cached_property
     def state0(self) -> np.ndarray:
@@ -157,7 +162,7 @@ def initial_quaternion(initial: cfg.Initial) -> np.ndarray:
 def build_scene(scenario: cfg.Scenario, torque: Callable | None = None, frame: str = "body") -> Scene:
     """The scene of ``scenario``; ``torque`` adds a Python function fn(t, q, omega) -> M (user's
     body frame in, M in ``frame``) compiled by numba (``rotlab.scene.loads.user_torque``)."""
-    rigid = _rigid_part(scenario) if torque is None else _build_rigid(scenario, user_torque(torque, frame, _principal(scenario.body)[1]))
+    rigid = _rigid_part(scenario) if torque is None else _build_rigid(scenario, user_torque(torque, frame, _principal(scenario.body)[1]), torque)
     q0 = initial_quaternion(scenario.initial)
     if scenario.body.principal_moments is None:  # Λ_P = Λ_U ∘ Λ_axes
         q0 = quat.multiply(q0, rigid.fields["axes_quaternion"])
@@ -201,10 +206,10 @@ def _principal(body: cfg.Body) -> tuple[np.ndarray, np.ndarray]:
     return inertia.principal_axes(np.asarray(body.inertia_tensor, dtype=float))
 
 
-def _build_rigid(scenario: cfg.Scenario, user) -> _Rigid:
+def _build_rigid(scenario: cfg.Scenario, user, user_function: Callable | None = None) -> _Rigid:
     moments, axes = _principal(scenario.body)
     axes_q = np.array([1.0, 0.0, 0.0, 0.0]) if scenario.body.principal_moments is not None else quat.from_matrix(axes)
-    loads = compile_loads(scenario, axes, moments, user)
+    loads = compile_loads(scenario, axes, moments, user, user_function)
     forces = active_forces(loads)
     has_work = has_nonconservative(loads)
     field = _common_direction(forces[:, 3:]) if len(forces) and not has_work else None
