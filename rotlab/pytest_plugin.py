@@ -14,7 +14,6 @@ and pytest-xdist work as for any test.  Nothing heavy is imported until an item 
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -49,11 +48,16 @@ def _enabled_for(path: Path, config: pytest.Config) -> bool:
 
 
 def _has_checks(path: Path) -> bool:
+    """A scenario with [checks], or a file that cannot be read as TOML (not UTF-8, bad syntax, a
+    number too long): collected, so that it fails as one item with its one-line reason while
+    the scenarios beside it run."""
+    from rotlab.config.loader import read_toml
+    from rotlab.errors import InputError
+
     try:
-        with path.open("rb") as f:
-            return isinstance(tomllib.load(f).get("checks"), dict)
-    except (OSError, tomllib.TOMLDecodeError):
-        return False  # not a scenario this plugin runs (rotlab validate reports broken files)
+        return isinstance(read_toml(path).get("checks"), dict)
+    except InputError:
+        return True
 
 
 class ScenarioFailed(Exception):

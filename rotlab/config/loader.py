@@ -81,6 +81,8 @@ def parse_toml_text(text: str, where: str) -> dict[str, Any]:
         raise InputError(where, f"TOML syntax error: {exc}") from None
     except RecursionError:
         raise InputError(where, "arrays or tables nested too deeply: a scenario nests a few levels at most") from None
+    except ValueError as exc:  # tomllib's int() of a literal beyond Python's digit limit (4,300)
+        raise InputError(where, f"a number too long to read ({str(exc).split(':')[0].lower()}): write it with an exponent, e.g. 1e30") from None
     except _ParseTimeout:
         raise InputError(where, f"took more than {PARSE_SECONDS:g} s to parse: a scenario is a small TOML text file") from None
 
@@ -129,7 +131,7 @@ def parse_scenario(
 
 def input_error(exc: ValidationError, source: str) -> InputError:
     errors = exc.errors(include_url=False)
-    key, message = _describe(errors[0])
+    key, message = _describe(errors[0], errors)
     more = f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})" if len(errors) > 1 else ""
     return InputError(f"{source}: {key}" if key else source, message + more)
 
@@ -155,14 +157,17 @@ def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str
     return merged
 
 
-def _describe(error: Mapping[str, Any]) -> tuple[str, str]:
-    """(dotted key, message with the fix) for one pydantic error."""
+def _describe(error: Mapping[str, Any], errors: list[Mapping[str, Any]] = ()) -> tuple[str, str]:  # type: ignore[assignment]
+    """(dotted key, message with the fix) for one pydantic error (``errors``: all of them, for the
+    length a short vector needs)."""
     raw_loc = tuple(error["loc"])
     loc = _clean_loc(raw_loc)
     ctx = error.get("ctx") or {}
     if "key" in ctx:
         loc = loc + tuple(int(part) if part.isdigit() else part for part in str(ctx["key"]).split("."))
     kind = error["type"]
+    if kind == "missing" and loc and isinstance(loc[-1], int) and isinstance(error.get("input"), (list, tuple)):
+        return _short_vector(loc, error, errors)
     if kind == "missing":
         return _dotted(loc), "required key is missing: add it"
     if kind == "extra_forbidden":
@@ -172,13 +177,32 @@ def _describe(error: Mapping[str, Any]) -> tuple[str, str]:
         return _dotted(loc), f"unknown key: {hint}"
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         return _dotted(loc + ("type",)), f"load type must be one of: {', '.join(LOAD_MODELS)}"
-    if kind in ("tuple_type", "list_type") or kind.startswith("too_"):
+    if kind in ("too_long", "too_short") and "Tuple" in error["msg"]:
+        needed = re.search(r"at (?:most|least) (\d+) item", error["msg"])
+        count = len(error["input"]) if isinstance(error.get("input"), (list, tuple)) else "another number of"
+        return _dotted(loc), f"needs {needed.group(1) if needed else 'a fixed number of'} components, got {count}: give one value per component"
+    if kind == "tuple_type":
+        return _dotted(loc), f"must be a list of numbers in brackets, e.g. [0.0, 0.0, 1.0], not {_shown(error.get('input'))}"
+    if kind in ("list_type",) or kind.startswith("too_"):
         return _dotted(loc), f"{error['msg'].lower()}"
     if kind == "model_type" or kind == "dict_type":
         return _dotted(loc), "must be a table, e.g. [section] or { key = value }"
     if kind == "literal_error":
         return _dotted(loc), error["msg"].replace("Input should be", "must be")
     return _dotted(loc), error["msg"].replace("Input should be", "must be").replace("Value error, ", "")
+
+
+def _short_vector(loc: tuple[Any, ...], error: Mapping[str, Any], errors: list[Mapping[str, Any]]) -> tuple[str, str]:
+    """A fixed-length vector given too few components: how many it needs (its missing positions
+    are errors of their own), how many it has."""
+    raw = tuple(error["loc"])[:-1]
+    needed = 1 + max(e["loc"][-1] for e in errors if e["type"] == "missing" and tuple(e["loc"])[:-1] == raw and isinstance(e["loc"][-1], int))
+    return _dotted(loc[:-1]), f"needs {needed} components, got {len(error['input'])}: give one value per component"
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _clean_loc(loc: tuple[Any, ...]) -> tuple[Any, ...]:

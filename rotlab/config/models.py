@@ -167,7 +167,25 @@ class Body(_Model):
                 f"principal moments break the triangle inequality, {broken}: no real body has them; "
                 "set allow_triangle_violation = true for a mathematical test problem",
             )
+        spread = inertia.moment_ratio_violation(moments)
+        if spread:
+            raise _invalid(key, f"{spread}: no real body has them, and the equations of motion lose all precision; check the units")
+        if self.mass is not None and not self.allow_triangle_violation and any(self.center_of_mass):
+            self._check_centre_of_mass()
         return self
+
+    def _check_centre_of_mass(self) -> None:
+        """The inertia about the centre of mass must be realisable (``rotlab.scene.inertia``)."""
+        tensor = self.inertia_tensor or [[self.principal_moments[i] if i == j else 0.0 for j in range(3)] for i in range(3)]
+        why = inertia.centre_of_mass_violation(tensor, self.mass, self.center_of_mass)
+        if why:
+            arm = math.sqrt(sum(x * x for x in self.center_of_mass))
+            raise _invalid(
+                "center_of_mass",
+                f"no body has these moments of inertia about the fixed point with {self.mass:g} kg at {arm:g} m from it "
+                f"(m r² = {self.mass * arm * arm:.3g} kg·m²; {why}): is the mass in kg, not grams, and the centre of mass "
+                "in m and not too far out? (set allow_triangle_violation = true for a mathematical test problem)",
+            )
 
 
 class Initial(_Model):
@@ -468,12 +486,27 @@ class Checks(_Model):
         return bounds
 
 
+def _ordered(key: str, low: float, high: float) -> None:
+    if not low < high:
+        raise _invalid(key, f"needs low < high, found [{low:g}, {high:g}]: write the range as [low, high]")
+
+
 class Uniform(_Model):
     uniform: tuple[Real, Real]  # draw uniformly in [low, high]
+
+    @model_validator(mode="after")
+    def _range(self) -> Uniform:
+        _ordered("uniform", *self.uniform)
+        return self
 
 
 class LogUniform(_Model):
     log_uniform: tuple[PositiveReal, PositiveReal]  # draw log-uniformly in [low, high]
+
+    @model_validator(mode="after")
+    def _range(self) -> LogUniform:
+        _ordered("log_uniform", *self.log_uniform)
+        return self
 
 
 class Normal(_Model):

@@ -48,6 +48,8 @@ def parse_assignment(text: str) -> tuple[str, Any]:
         value = tomllib.loads(f"value = {raw.strip()}")["value"]
     except tomllib.TOMLDecodeError:
         value = raw.strip()
+    except ValueError:  # an integer literal beyond Python's digit limit (4,300)
+        raise InputError(f"--set {key}", "a number too long to read: write it with an exponent, e.g. 1e30") from None
     return key, value
 
 

@@ -23,6 +23,7 @@ from rotlab.config import models as cfg
 from rotlab.core import quaternion as quat
 from rotlab.core.state import STATE_SIZE
 from rotlab.core.torques import conservative_torque, nonconservative_torque
+from rotlab.recording.style import MAX_3D_LABEL
 from rotlab.scene.loads import LoadArrays, build_model, compile_loads
 
 MAX_LOAD_SAMPLES = 20_000  # load arrows drawn per load and run
@@ -60,13 +61,20 @@ def _build(scene) -> list[LoadView]:
                                 mass * np.asarray(load.g, float), "space", alone, build_model(alone, scene.moments), "gravity m·g at the centre of mass (space frame)"))
         elif isinstance(load, cfg.Force):
             n_force += 1
-            out.append(LoadView(f"F{n_force}", "force", frame == "space", np.asarray(load.point, float),
+            out.append(LoadView(_symbol("F", n_force), "force", frame == "space", np.asarray(load.point, float),
                                 np.asarray(load.value, float), frame, alone, build_model(alone, scene.moments), f"force {n_force} ({frame} frame) at its point"))
         else:
             n_torque += 1
-            out.append(LoadView(f"M{n_torque}", "torque", False, None, None, frame, alone, build_model(alone, scene.moments),
+            out.append(LoadView(_symbol("M", n_torque), "torque", False, None, None, frame, alone, build_model(alone, scene.moments),
                                 f"{kind_name} ({frame} frame), drawn at the fixed point"))
     return out
+
+
+def _symbol(letter: str, number: int) -> str:
+    """The 3D label of the ``number``-th load of a kind (F1, M2); past 99, "M+" (the Run tab lists
+    every load: a 3D label is at most ``MAX_3D_LABEL`` characters)."""
+    text = f"{letter}{number}"
+    return text if len(text) <= MAX_3D_LABEL else f"{letter}+"
 
 
 def compiled(view: LoadView) -> bool:
