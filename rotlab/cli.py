@@ -83,6 +83,7 @@ def run(
     serve_web: Annotated[bool, typer.Option("--serve-web", help="Serve the web viewer (http://127.0.0.1:9090) and stream into it; waits for Ctrl-C at the end.")] = False,
     port: Annotated[int, typer.Option("--port", min=1, max=65535, help="gRPC port of the viewer started by --spawn or the server of --serve-web.")] = 9876,
     web_port: Annotated[int, typer.Option("--web-port", min=1, max=65535, help="HTTP port of --serve-web.")] = 9090,
+    bind: Annotated[str, typer.Option("--bind", help="Address --serve-web's data server listens on. The default, 127.0.0.1, is this machine only; 0.0.0.0 EXPOSES THE RUN to every machine that can reach this one.")] = "127.0.0.1",
     timeout: Annotated[Optional[float], typer.Option("--timeout", help="Stop the run after SECONDS of wall-clock time (the samples so far are kept).")] = None,
     max_megabytes: Annotated[Optional[float], typer.Option("--max-megabytes", help="Override [output] max_megabytes: the largest recording to start without asking.")] = None,
 ) -> None:
@@ -91,7 +92,7 @@ def run(
 
     try:
         _run(config, output, method, duration, quiet, _overrides(assignments), spawn,
-             (url or DEFAULT_VIEWER_URL) if (connect or url) else None, serve_web, timeout, max_megabytes, port, web_port)
+             (url or DEFAULT_VIEWER_URL) if (connect or url) else None, serve_web, timeout, max_megabytes, port, web_port, bind)
     except KeyboardInterrupt:  # before the run began, or a second Ctrl-C: nothing was kept
         _fail(Interrupted("interrupted before any sample was kept"))
     except (InputError, RunFailure) as exc:
@@ -103,6 +104,20 @@ def _positive(name: str, value: float | None) -> None:
 
     if value is not None and not (value > 0 and value < float("inf")):
         raise InputError(name, f"must be a positive number (got {value})")
+
+
+def _check_ports(live, in_use) -> None:
+    """--serve-web's two ports must be free (one line naming the option, before anything runs)."""
+    from rotlab.errors import InputError
+
+    for option, host, number in (("--port", live.bind, live.grpc_port), ("--web-port", "0.0.0.0", live.web_port)):
+        try:
+            busy = in_use(host, number)
+        except (OSError, ValueError) as exc:  # an address this machine does not have, or no address
+            raise InputError(f"--bind {live.bind}", f"cannot listen there ({exc}): give an address of this machine, e.g. 127.0.0.1") from None
+        if busy:
+            raise InputError(f"{option} {number}", "the port is in use by another program: choose another, e.g. "
+                                                   f"{option} {number + 1}")
 
 
 def _serve_until_interrupted(url: str | None) -> None:
@@ -119,15 +134,15 @@ def _serve_until_interrupted(url: str | None) -> None:
 
 def _run(config: Path, output: Path | None, method: str | None, duration: float | None, quiet: bool, overrides: dict[str, object],
          spawn: bool = False, connect: str | None = None, serve_web: bool = False, timeout: float | None = None,
-         max_megabytes: float | None = None, port: int = 9876, web_port: int = 9090) -> None:
+         max_megabytes: float | None = None, port: int = 9876, web_port: int = 9090, bind: str = "127.0.0.1") -> None:
     import time
 
     with interrupts.deferred():  # Ctrl-C while numpy, scipy, numba and rerun load: raised after, not inside them
         from rotlab import api
-        from rotlab.errors import Interrupted, RunFailure
+        from rotlab.errors import InputError, Interrupted, RunFailure
         from rotlab.progress import StreamProgress
         from rotlab.recording.arrow import withhold_pandas
-        from rotlab.recording.sink import LiveOptions, RecordingSink
+        from rotlab.recording.sink import LOOPBACK, LiveOptions, RecordingSink, port_in_use
         from rotlab.recording.writer import check_output_path, check_size, partial_path
         from rotlab.scene.scene import build_scene
         from rotlab.summary import summary_lines
@@ -138,10 +153,17 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     _positive("--duration", duration)
     _positive("--timeout", timeout)
     _positive("--max-megabytes", max_megabytes)
-    live = LiveOptions(spawn=spawn, connect=connect, serve_web=serve_web, grpc_port=port, web_port=web_port)
+    live = LiveOptions(spawn=spawn, connect=connect, serve_web=serve_web, grpc_port=port, web_port=web_port, bind=bind)
+    if serve_web:
+        _check_ports(live, port_in_use)
+        if bind != LOOPBACK:
+            typer.echo(f"rotlab: --bind {bind}: the run's data server is open to every machine that can reach this one", err=True)
     scenario = api.load(config, method=method, duration=duration, overrides=overrides)
     target = output if output is not None or live.any else Path(scenario.output.path or f"{config.stem}.rrd")
     if target is not None:
+        if target.suffix.lower() != ".rrd":
+            raise InputError(f"output {target}", "a recording is a Rerun .rrd file: give a name ending in .rrd "
+                                                 "(for a picture of it: rotlab snapshot RUN.rrd -o FIG.png)")
         check_output_path(target, inputs=(config,))
         check_output_path(partial_path(target), inputs=(config,))
         check_size(scenario, max_megabytes or scenario.output.max_megabytes)

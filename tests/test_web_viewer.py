@@ -139,3 +139,46 @@ def _free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         return probe.getsockname()[1]
+
+
+def _listening(port: int) -> set[str]:
+    """The local addresses (hex, as /proc/net/tcp writes them) listening on ``port``."""
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        if not os.path.exists(table):
+            continue
+        for line in open(table).read().splitlines()[1:]:
+            local, state = line.split()[1], line.split()[3]
+            address, hex_port = local.split(":")
+            if state == "0A" and int(hex_port, 16) == port:  # 0A: LISTEN
+                found.add(address)
+    return found
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/net/tcp"), reason="reads the listening sockets from /proc/net/tcp")
+def test_serve_web_keeps_the_runs_data_on_this_machine(tmp_path):
+    grpc, web = _free_port(), _free_port()
+    proc = subprocess.Popen([sys.executable, "-m", "rotlab", "run", str(CONFIGS / "euler.toml"), "-o", "web.rrd", "--serve-web",
+                             "--port", str(grpc), "--web-port", str(web)],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _served_url(proc)
+        assert _listening(grpc) == {"0100007F"}  # 127.0.0.1 only
+    finally:
+        proc.send_signal(signal.SIGINT)  # --serve-web serves until Ctrl-C, then finishes the file
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    verify_rrd(tmp_path / "web.rrd")  # raises unless complete
+
+
+def test_serve_web_refuses_a_busy_port_in_one_line(cli, tmp_path):
+    import socket
+
+    with socket.socket() as holder:
+        holder.bind(("127.0.0.1", 0))
+        holder.listen()
+        port = holder.getsockname()[1]
+        result = cli("run", str(CONFIGS / "euler.toml"), "-o", "web.rrd", "--serve-web", "--port", str(port))
+    assert result.exit_code == 2
+    assert result.stderr.strip() == f"rotlab: error: --port {port}: the port is in use by another program: choose another, e.g. --port {port + 1}"
+    assert not (tmp_path / "web.rrd").exists()

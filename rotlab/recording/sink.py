@@ -47,6 +47,25 @@ LIVE_TIMEOUT = 10.0  # s: at the end, how long the live viewers get to take the 
 LIVE_BEHIND = 8  # chunks (flushes) a live viewer may lag behind the file before it is given up
 
 
+LOOPBACK = "127.0.0.1"
+
+
+def port_in_use(host: str, port: int) -> bool:
+    """Whether ``host:port`` is taken (a listening socket of another program); OSError when
+    ``host`` is no address of this machine."""
+    import errno
+    import socket
+
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM) as probe:
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                return True
+            raise
+    return False
+
+
 @dataclass(frozen=True)
 class LiveOptions:
     """Live sinks, Rerun's way: spawn a viewer, connect to one, or serve the web viewer."""
@@ -56,6 +75,7 @@ class LiveOptions:
     serve_web: bool = False
     web_port: int | None = None
     grpc_port: int = 9876
+    bind: str = LOOPBACK  # the address --serve-web's gRPC server listens on: this machine only, unless asked
 
     @property
     def any(self) -> bool:
@@ -224,7 +244,7 @@ class RecordingSink:
             sinks.append(rr.GrpcSink(self.live.connect))
         server = None
         if self.live.serve_web:
-            server = rr.GrpcServerSink(port=self.live.grpc_port)
+            server = rr.GrpcServerSink(bind_ip=self.live.bind, port=self.live.grpc_port)
             sinks.append(server)
         self._live_rec.set_sinks(*sinks, default_blueprint=blueprint)
         self._live_rec.send_blueprint(blueprint, make_active=True)
