@@ -161,10 +161,10 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     scenario = api.load(config, method=method, duration=duration, overrides=overrides)
     target = output if output is not None or live.any else Path(scenario.output.path or f"{config.stem}.rrd")
     if target is not None:
+        check_output_path(target, inputs=(config,))
         if target.suffix.lower() != ".rrd":
             raise InputError(f"output {target}", "a recording is a Rerun .rrd file: give a name ending in .rrd "
                                                  "(for a picture of it: rotlab snapshot RUN.rrd -o FIG.png)")
-        check_output_path(target, inputs=(config,))
         check_output_path(partial_path(target), inputs=(config,))
         check_size(scenario, max_megabytes or scenario.output.max_megabytes)
     scene = build_scene(scenario)

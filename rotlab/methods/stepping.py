@@ -159,7 +159,7 @@ def run_chunks(
             status, local, taken = advance(times, window, i - base, budget)
             steps += taken
             done = base + local
-            if status == 0 and integrator_time is not None and taken >= budget:
+            if status == 0 and integrator_time is not None and taken >= budget == CHUNK_STEPS and steps < max_steps:
                 failure = stall_message(start, now(), taken, float(t[n - 1]), max_steps - steps, max_steps)
             if status != 0:
                 valid = _valid_rows(window, local)  # a kernel may have written non-finite rows before it stopped
@@ -184,7 +184,8 @@ def run_chunks(
 
 
 def stall_message(t_from: float, t_to: float, taken: int, t_end: float, steps_left: int, max_steps: int) -> str | None:
-    """Why an adaptive run cannot finish, judged after a chunk that used its whole budget: at the
+    """Why an adaptive run cannot finish, judged after a whole chunk of ``CHUNK_STEPS`` with steps
+    left in the budget (else the budget's own message says it): at the
     chunk's pace ((t_to − t_from) / taken per step) the rest of the span needs more than
     ``STALL_FACTOR`` times the steps left in ``solver.max_steps`` (a step size collapsed at a
     singular or chattering load, or an absurd scene); None while it can."""

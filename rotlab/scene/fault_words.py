@@ -17,8 +17,8 @@ def explain(fault: faults.Fault, loads: LoadArrays) -> str:
         names = loads.formula_names[fault.load] if fault.load < len(loads.formula_names) else ("a load formula",) * 3
         name = names[fault.component]
         if fault.detail >= 1.0:
-            return (f"{name} has no Taylor series {where}: its derivative of order {fault.detail:.0f} is not finite "
-                    "(the formula is not smooth there; method dop853 or rk4 can step across it)")
+            return (f"{name} has no finite Taylor series {where}: its coefficient of order {fault.detail:.0f} is not finite "
+                    "(the formula is not smooth there, or its derivatives overflow; method dop853 or rk4 can step across a kink)")
         return f"{name} is not finite {where}"
     name = getattr(loads.user_function, "__name__", "torque")
     call = f"the Python torque {name}(t, q, omega)"

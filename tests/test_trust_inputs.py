@@ -1,0 +1,100 @@
+"""Refusals in one line (exit 2, nothing written) for inputs that used to end in a traceback, a
+misleading message or a run that never ends; and the physical sense of a body's mass."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from rotlab.scene import inertia
+from tests.conftest import CONFIGS, VALID_BODY
+
+FREE = VALID_BODY + "[initial]\nomega = [0.1, 0.2, 0.3]\n[time]\nend = 1.0\nsample_rate = 20\n"
+TOP = "[body]\nprincipal_moments = [{a}, {a}, {c}]\nmass = {m}\ncenter_of_mass = [0, 0, {z}]\n" \
+      "[initial]\nomega = [0, 0, 100]\n[[loads]]\ntype = \"gravity\"\n[time]\nend = 1.0\n"
+
+
+def _refused(cli, write, name: str, text: str | bytes) -> str:
+    """The one line ``rotlab validate`` refuses ``text`` with."""
+    path = write(name, text)
+    result = cli("validate", str(path))
+    assert result.exit_code == 2, (result.stdout, result.stderr)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    return lines[0]
+
+
+def test_a_top_whose_mass_is_in_grams_is_refused_with_the_likely_cause(cli, write):
+    """A = B = 4e-5, C = 2.5e-5 kg·m² with 0.05 kg at 0.025 m: about the centre of mass the
+    second moment along z is 2.75e-5 − 0.05·0.025² = −3.75e-6 kg·m² < 0."""
+    line = _refused(cli, write, "grams.toml", TOP.format(a=4e-5, c=2.5e-5, m=0.05, z=0.025))
+    assert "body.center_of_mass" in line and "-3.75e-06 kg·m² < 0" in line and "not grams" in line
+
+
+def test_a_lever_arm_far_beyond_the_body_is_refused_not_run_forever(cli, write):
+    line = _refused(cli, write, "far.toml", TOP.format(a=0.002, c=0.001, m=0.5, z="1e20"))
+    assert "body.center_of_mass" in line and "1e+20 m" in line
+
+
+def test_the_shipped_tops_and_a_point_mass_on_a_massless_rod_are_realisable():
+    m, z = 0.5, 0.04
+    assert inertia.centre_of_mass_violation([[m * z * z, 0, 0], [0, m * z * z, 0], [0, 0, 0.0]], m, [0, 0, z]) is None
+    assert inertia.centre_of_mass_violation([[m * z * z * (1 - 1e-6), 0, 0], [0, m * z * z, 0], [0, 0, 0.0]], m, [0, 0, z]) is not None
+
+
+def test_moments_1e30_apart_are_refused(cli, write):
+    line = _refused(cli, write, "needle.toml", "[body]\nprincipal_moments = [1e-20, 1e10, 1e10]\n[time]\nend = 1.0\n")
+    assert "body.principal_moments" in line and "1e+30 times the smallest" in line
+
+
+@pytest.mark.parametrize("text, words", [
+    ("[initial]\nomega = [0.0, 120.0]\n", "initial.omega: needs 3 components, got 2"),
+    ("[initial]\nomega = [0.0, 1.0, 2.0, 3.0]\n", "initial.omega: needs 3 components, got 4"),
+    ("[initial]\nquaternion = [1.0]\n", "initial.quaternion: needs 4 components, got 1"),
+    ('[[loads]]\ntype = "gravity"\ng = -9.81\n', "loads[0].g: must be a list of numbers in brackets"),
+])
+def test_a_vector_of_the_wrong_length_says_how_many_components(cli, write, text, words):
+    assert words in _refused(cli, write, "v.toml", VALID_BODY + "[time]\nend = 1.0\n" + text)
+
+
+def test_an_integer_of_5000_digits_is_refused_in_the_file_and_in_set(cli, write):
+    digits = "1" * 5000
+    assert "a number too long to read" in _refused(cli, write, "big.toml", VALID_BODY + f"[time]\nend = {digits}\n")
+    path = write("ok.toml", FREE)
+    result = cli("run", str(path), "--set", f"time.end={digits}")
+    assert result.exit_code == 2 and result.stderr.strip().endswith("a number too long to read: write it with an exponent, e.g. 1e30")
+
+
+@pytest.mark.parametrize("draw", ["{ uniform = [1, 0] }", "{ log_uniform = [2.0, 1.0] }", "{ uniform = [1, 1] }"])
+def test_a_reversed_sweep_range_is_refused_by_validate(cli, write, draw):
+    text = FREE + f'[sweep]\nsamples = 2\n[sweep.parameters]\n"initial.omega[0]" = {draw}\n'
+    assert "needs low < high" in _refused(cli, write, "sweep.toml", text)
+
+
+def test_a_recording_name_without_rrd_is_refused(cli, write, tmp_path):
+    path = write("ok.toml", FREE)
+    result = cli("run", str(path), "-o", "out.png")
+    assert result.exit_code == 2 and "give a name ending in .rrd" in result.stderr
+    assert not (tmp_path / "out.png").exists()
+
+
+def test_a_run_with_120_torques_writes_its_recording(cli, write, tmp_path):
+    loads = '[[loads]]\ntype = "torque"\nframe = "body"\nvalue = [0.0, 0.0, 1e-4]\n' * 120
+    path = write("many.toml", FREE + loads)
+    result = cli("run", str(path), "-o", "many.rrd", "-q")
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "many.rrd").stat().st_size > 0
+
+
+def test_the_pytest_plugin_runs_the_good_scenarios_beside_unreadable_files(tmp_path):
+    good = FREE + "[checks]\nmax_drift = { energy = 1e-6 }\n"
+    (tmp_path / "good.toml").write_text(good)
+    (tmp_path / "binary.toml").write_bytes(b"\xff\xfe\x00garbage" * 10)
+    (tmp_path / "latin1.toml").write_bytes("title = 'caf\xe9'\n".encode("latin-1"))
+    (tmp_path / "huge.toml").write_text(VALID_BODY + "[time]\nend = " + "1" * 5000 + "\n")
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(tmp_path)],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert "3 failed, 1 passed" in proc.stdout, proc.stdout[-2000:]
+    assert "not UTF-8 text" in proc.stdout and "a number too long to read" in proc.stdout
