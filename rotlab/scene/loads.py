@@ -200,14 +200,13 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray,
         return (-np.inf, np.inf) if w is None else (w.on, w.off)
 
     for index, load in enumerate(scenario.loads):
-        names = _component_names(index, load)
         if isinstance(load, cfg.Gravity):
             mass = scenario.body.mass or 0.0
             forces.append(np.concatenate([body_vector(scenario.body.center_of_mass), mass * np.asarray(load.g)]))
         elif isinstance(load, cfg.Force) and load.frame == "space" and load.window is None:
             forces.append(np.concatenate([body_vector(load.point), np.asarray(load.value, dtype=float)]))
         elif isinstance(load, cfg.Force) and load.frame == "space":  # switched on and off: does work
-            programs.formulas([repr(float(v)) for v in load.value], {}, SPACE, window(load.window), point=body_vector(load.point), names=names)
+            programs.formulas([repr(float(v)) for v in load.value], {}, SPACE, window(load.window), point=body_vector(load.point), names=_component_names(index, load))
         elif isinstance(load, cfg.Force):  # body-frame force: a constant follower torque p × F
             moment = np.cross(body_vector(load.point), body_vector(load.value))
             terms.append(_term(BODY, window(load.window), moment, np.zeros(3), 0.0, 0.0))
@@ -233,17 +232,17 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray,
             frame = BODY if load.frame == "body" else SPACE
             point = None if load.point is None else body_vector(load.point)
             up = np.asarray(load.up, dtype=float)
-            programs.add(load.programs(), frame, window(load.window), point=point, up=up / np.linalg.norm(up), names=names)
+            programs.add(load.programs(), frame, window(load.window), point=point, up=up / np.linalg.norm(up), names=_component_names(index, load))
         elif isinstance(load, cfg.PDControl):
-            programs.formulas(*_pd_control(load), BODY, window(load.window), names=names)
+            programs.formulas(*_pd_control(load), BODY, window(load.window), names=_component_names(index, load))
         elif isinstance(load, cfg.QuadraticDrag):  # −c |ω| ω
             texts = [f"-c*sqrt(omega[0]**2 + omega[1]**2 + omega[2]**2)*omega[{i}]" for i in range(3)]
-            programs.formulas(texts, {"c": load.coefficient}, BODY, window(load.window), names=names)
+            programs.formulas(texts, {"c": load.coefficient}, BODY, window(load.window), names=_component_names(index, load))
         elif isinstance(load, cfg.GravityGradient):
             vertical = np.asarray(load.vertical, dtype=float) / np.linalg.norm(load.vertical)
             normal = np.asarray(load.orbit_normal, dtype=float) / np.linalg.norm(load.orbit_normal)
             programs.formulas(*_gravity_gradient(load, _user_inertia(scenario.body)), BODY, (-np.inf, np.inf),
-                              up=vertical, up2=np.cross(normal, vertical), rate=load.orbit_rate, names=names)
+                              up=vertical, up2=np.cross(normal, vertical), rate=load.orbit_rate, names=_component_names(index, load))
     return LoadArrays(
         forces=np.array(forces, dtype=float).reshape(-1, 6),
         terms=np.array(terms, dtype=float).reshape(-1, 11),
