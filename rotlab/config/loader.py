@@ -12,7 +12,7 @@ import types
 import typing
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 from pydantic import BaseModel, ValidationError
 
@@ -157,7 +157,7 @@ def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str
     return merged
 
 
-def _describe(error: Mapping[str, Any], errors: list[Mapping[str, Any]] = ()) -> tuple[str, str]:  # type: ignore[assignment]
+def _describe(error: Mapping[str, Any], errors: Sequence[Mapping[str, Any]] = ()) -> tuple[str, str]:
     """(dotted key, message with the fix) for one pydantic error (``errors``: all of them, for the
     length a short vector needs)."""
     raw_loc = tuple(error["loc"])
@@ -192,7 +192,7 @@ def _describe(error: Mapping[str, Any], errors: list[Mapping[str, Any]] = ()) ->
     return _dotted(loc), error["msg"].replace("Input should be", "must be").replace("Value error, ", "")
 
 
-def _short_vector(loc: tuple[Any, ...], error: Mapping[str, Any], errors: list[Mapping[str, Any]]) -> tuple[str, str]:
+def _short_vector(loc: tuple[Any, ...], error: Mapping[str, Any], errors: Sequence[Mapping[str, Any]]) -> tuple[str, str]:
     """A fixed-length vector given too few components: how many it needs (its missing positions
     are errors of their own), how many it has."""
     raw = tuple(error["loc"])[:-1]

@@ -10,7 +10,7 @@ and why (``rotlab.scene.scene.Scene.explain_fault``).
 
 The record is one process-wide float64 buffer that compiled code reaches through a linker
 symbol (llvmlite's ``add_symbol``), not through an address baked into the code, so the functions
-that write it stay cacheable on disk.  Its layout (``rotlab.core.state``-free, user's body frame):
+that write it stay cacheable on disk.  Its layout (the state as the load saw it, user's body frame):
 
     [kind, load, component, t, ω₀, ω₁, ω₂, λ₀, λ₁, λ₂, λ₃, detail]
 

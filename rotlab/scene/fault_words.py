@@ -14,8 +14,7 @@ def explain(fault: faults.Fault, loads: LoadArrays) -> str:
     """Why the run stopped, from the fault a compiled load recorded (not INTERRUPTED)."""
     where = f"at t = {fault.t:.9g} s (ω = {_vector(fault.omega)} rad/s, q = {_vector(fault.quaternion)}, body frame)"
     if fault.kind == faults.FORMULA_NOT_FINITE:
-        names = loads.formula_names[fault.load] if fault.load < len(loads.formula_names) else ("a load formula",) * 3
-        name = names[fault.component]
+        name = loads.formula_names[fault.load][fault.component]
         if fault.detail >= 1.0:
             return (f"{name} has no finite Taylor series {where}: its coefficient of order {fault.detail:.0f} is not finite "
                     "(the formula is not smooth there, or its derivatives overflow; method dop853 or rk4 can step across a kink)")

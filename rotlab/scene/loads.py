@@ -253,7 +253,7 @@ def compile_loads(scenario: cfg.Scenario, axes: np.ndarray, moments: np.ndarray,
         expressions=programs.build(axes, moments),
         user=user,
         formula_names=tuple(programs.names),
-        user_function=None if user is None else user_function,
+        user_function=user_function,
     )
 
 
