@@ -90,6 +90,17 @@ def test_a_controller_load_is_named_by_its_kind():
         rotlab.simulate(_load(text, "dop853"))
 
 
+@pytest.mark.parametrize("method", ["taylor", "rk4", "dop853"])
+@pytest.mark.parametrize("frame", ["body", "space"])
+def test_the_failing_component_is_named_not_a_neighbour_its_nan_reaches(method, frame):
+    """taylor: the NaN of torque[1] enters the state's series and makes torque[2]'s higher
+    coefficients NaN too; the fault named is still torque[1] at order 0."""
+    text = FREE + (f'[[loads]]\ntype = "expression"\nframe = "{frame}"\n'
+                   'torque = ["0.1*sin(t)", "0.05*omega[0]**2 - 0.01*t**(-2)", "exp(-t)*q[1]"]\n')
+    with pytest.raises(RunFailure, match=r"loads\[0\]\.torque\[1\] = '0.05\*omega\[0\]\*\*2 - 0.01\*t\*\*\(-2\)' is not finite at t = 0 s"):
+        rotlab.simulate(_load(text, method))
+
+
 def _raises_late(t, q, omega):
     if t > 1.2345:
         raise ValueError("too late")

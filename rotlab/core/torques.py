@@ -430,8 +430,13 @@ def _expression_series_impl(k, t, X, P, ex, inputs, tape, stack):
 @njit(cache=True)
 def _check_series(k, t, X, tape, rx, ry, rz, load, axes, axes_q):
     """Record a fault (``rotlab.core.faults``) when coefficient k of a component of expression load
-    ``load`` is not finite while the state at the step's start is: the formula is not finite
-    (k = 0) or has no Taylor series (k ≥ 1: not smooth) at t.  The order k is the detail."""
+    ``load`` is not finite while its inputs' coefficients X[k] and the state at the step's start
+    are: the formula is not finite (k = 0) or has no Taylor series (k ≥ 1: not smooth) at t.
+    (An X[k] that is not finite came from another load's earlier coefficient, the fault already
+    recorded.)  The order k is the detail."""
+    for m in range(P0 + 3):
+        if not math.isfinite(X[k, m]):
+            return
     for c in range(3):
         row = rx if c == 0 else (ry if c == 1 else rz)
         if math.isfinite(tape[row, k]) or (k > 0 and not math.isfinite(tape[row, 0])):  # (order 0 said it)
