@@ -288,6 +288,24 @@ def test_taylor_keeps_a_switching_function_that_stays_at_zero_at_zero(text):
     assert np.all(traj.omega[:, :2] == 0.0) and np.all(traj.omega[:, 2] == 5.0)
 
 
+@pytest.mark.parametrize("target", [[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.6, 0.8]])
+def test_taylor_runs_two_switches_that_sit_at_the_start_together(target):
+    """Saturated pd_control from Λ = 1 with τ₀ = 0 and kd ω_x = max_torque: sgn δ₀ and the
+    saturation of M_x both switch exactly at t = 0.  Forcing one side dropped the other's forced
+    side at the next formation, which forced it again, for ever: taylor (and auto) stopped at
+    t = 0 ("step size fell below the resolution").  Bound: within 1e-10 of dop853 at rtol 1e-13."""
+    base = {"body": {"principal_moments": [2.0, 3.0, 4.0]}, "initial": {"omega": [0.5, -1.0, 0.8]},
+            "loads": [{"type": "pd_control", "target": target, "kp": 1.0, "kd": 1.0, "max_torque": 0.5}],
+            "time": {"end": 20.0, "samples": 201}}
+    runs = {}
+    for method, rtol in (("taylor", 1e-12), ("auto", 1e-12), ("dop853", 1e-13)):
+        traj = rotlab.simulate(parse_scenario({**base, "solver": {"method": method, "rtol": rtol, "atol": rtol * 1e-2}}))
+        runs[method] = traj
+    assert runs["auto"].stats.method == "taylor"
+    for method in ("taylor", "auto"):
+        assert float(np.max(np.abs(runs[method].omega - runs["dop853"].omega))) < 1e-10, method
+
+
 def test_taylor_coefficients_of_an_expression_scene_are_the_rhs():
     """X[1] of the taylor kernel equals f(t, y) to 1e-14 with every input variable in use."""
     from rotlab.core import taylor

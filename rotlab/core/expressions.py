@@ -151,12 +151,22 @@ IMMEDIATE = 1e-8  # a switch within this fraction of the step: the step starts o
 @njit(cache=True, inline="always")
 def _switch(tape, x, a, b, s0):
     """Record the switching function s = row a − row b (b < 0: row a alone) and its side at τ = 0
-    (the side ``switch_limit`` forced, once, if any): −1, +1, or 0 when s⁽⁰⁾ = 0 exactly (sign
-    gives 0 there; ``switch_limit`` forces the side s leaves 0 to, if it does in the step)."""
+    (the side ``switch_limit`` forced for this step, if any): −1, +1, or 0 when s⁽⁰⁾ = 0 exactly
+    (sign gives 0 there; ``switch_limit`` forces the side s leaves 0 to, if it does in the step).
+    A forced side holds for every formation of the step's series (two switches at t each force
+    one, in turn), until ``release_forced`` at the next step."""
     tape[x, SWITCH_A] = a
     tape[x, SWITCH_B] = b
     tape[x, SIDE] = tape[x, FORCED] if tape[x, FORCED] != 0.0 else sign(s0)
-    tape[x, FORCED] = 0.0
+
+
+@njit(cache=True)
+def release_forced(tape):
+    """Forget the sides ``switch_limit`` forced (at the start of a step; the column is a series
+    coefficient in other rows, formed again before any use)."""
+    if tape.shape[1] > FORCED:
+        for x in range(tape.shape[0]):
+            tape[x, FORCED] = 0.0
 
 
 @njit(cache=True)

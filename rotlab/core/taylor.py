@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, store_row
+from rotlab.core.expressions import release_forced
 from rotlab.core.quaternion import N_PRODUCTS, cross_array, rotate_quadratic
 from rotlab.core.torques import load_series, nonconservative_series, series_workspace, switch_step
 
@@ -230,6 +231,7 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0,
     while i < times.shape[0] and steps < max_steps:
         for m in range(STATE_SIZE):
             X[0, m] = y[m]
+        release_forced(tape)
         load_series(t, order, model, body, space)
         limit, _, b = next_piece(t, t_end, breaks, b)
         cut = -1.0
