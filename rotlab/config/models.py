@@ -86,10 +86,26 @@ def _invalid(key: str, message: str) -> PydanticCustomError:
     return PydanticCustomError("rotlab", message.replace("{", "(").replace("}", ")"), {"key": key})
 
 
-Real = Annotated[float, BeforeValidator(_real)]
-PositiveReal = Annotated[float, BeforeValidator(_real), AfterValidator(_positive)]
-TimeReal = Annotated[float, BeforeValidator(_real), AfterValidator(_time)]  # s, an instant
-NonNegativeReal = Annotated[float, BeforeValidator(_real), Field(ge=0)]
+class _SchemaBounds:
+    """The bounds a validator above enforces, stated in the JSON Schema too (``rotlab schema``):
+    editors then flag the value as the loader would.  Enforcement stays with the validator, whose
+    message names the fix."""
+
+    def __init__(self, **bounds: float) -> None:
+        self.bounds = bounds
+
+    def __get_pydantic_json_schema__(self, core_schema: Any, handler: Any) -> dict[str, Any]:
+        schema = handler(core_schema)
+        schema.update(self.bounds)
+        return schema
+
+
+Real = Annotated[float, BeforeValidator(_real), _SchemaBounds(minimum=-MAX_MAGNITUDE, maximum=MAX_MAGNITUDE)]
+PositiveReal = Annotated[float, BeforeValidator(_real), AfterValidator(_positive),
+                         _SchemaBounds(minimum=MIN_POSITIVE, maximum=MAX_MAGNITUDE)]
+TimeReal = Annotated[float, BeforeValidator(_real), AfterValidator(_time), _SchemaBounds(minimum=-MAX_TIME, maximum=MAX_TIME)]  # s, an instant
+NonNegativeReal = Annotated[float, BeforeValidator(_real), Field(ge=0), _SchemaBounds(minimum=0.0, maximum=MAX_MAGNITUDE)]
+MomentReal = Annotated[float, BeforeValidator(_real), _SchemaBounds(minimum=MIN_POSITIVE, maximum=MAX_MAGNITUDE)]  # Body checks > 0
 Vec3 = tuple[Real, Real, Real]
 Vec4 = tuple[Real, Real, Real, Real]
 Frame = Literal["body", "space"]
@@ -130,7 +146,7 @@ class Window(_Model):
 class Body(_Model):
     """Rigid body.  Inertia about the FIXED POINT, in the body frame (the frame you give it in)."""
 
-    principal_moments: Vec3 | None = None  # (A, B, C) kg·m², body axes are principal axes
+    principal_moments: tuple[MomentReal, MomentReal, MomentReal] | None = None  # (A, B, C) kg·m², body axes are principal axes
     inertia_tensor: tuple[Vec3, Vec3, Vec3] | None = None  # kg·m², symmetric positive definite
     mass: PositiveReal | None = None  # kg
     center_of_mass: Vec3 = (0.0, 0.0, 0.0)  # m, body frame, from the fixed point
@@ -431,7 +447,7 @@ class Solver(_Model):
 
     method: str = "auto"
     step: PositiveReal | None = None  # s, fixed-step methods (default from the scene's time scale)
-    rtol: Annotated[float, BeforeValidator(_real), AfterValidator(_rtol)] = 1e-10  # adaptive methods; and fixed-step ones without a step
+    rtol: Annotated[float, BeforeValidator(_real), AfterValidator(_rtol), _SchemaBounds(minimum=MIN_RTOL, maximum=1.0)] = 1e-10  # adaptive methods; and fixed-step ones without a step
     atol: PositiveReal = 1e-12
     max_steps: Annotated[int, Field(gt=0, le=2**62, strict=True)] = 200_000_000
     order: Annotated[int, Field(ge=1, le=40, strict=True)] | None = None  # methods offering several orders
