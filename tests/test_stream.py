@@ -584,3 +584,28 @@ def test_the_thinned_copy_of_a_run_stays_within_max_path_points():
     assert MAX_PATH_POINTS // 2 < t.shape[0] <= MAX_PATH_POINTS
     assert t[0] == 0.0 and np.all(np.diff(t) == thinned.every) and thinned.every & (thinned.every - 1) == 0
     assert t[-1] > total - 1 - thinned.every and np.array_equal(state[:, 3], t)
+
+
+@pytest.mark.parametrize("free_kb", [4, 64])  # the results tables do not fit / the comparison recording does not
+def test_a_sweep_onto_a_full_disk_ends_like_a_run(full_tmpfs, free_kb):
+    """Exit 1 with one line, no temporary file, the good old files untouched (it was twice a
+    traceback and twice a hang, a temporary file left behind)."""
+    outdir = full_tmpfs / "out"
+    outdir.mkdir()
+    (outdir / "results.csv").write_text("good old results\n")
+    (outdir / "sweep_flip_sweep.rrd").write_bytes(b"a good old recording")
+    filler = full_tmpfs / "filler"
+    with filler.open("wb") as f:
+        try:
+            f.write(b"\0" * (1024 * 1024 - free_kb * 1024 - 8192))
+        except OSError:
+            pass
+    done = subprocess.run(ROTLAB + ["sweep", str(CONFIGS / "sweep_flip.toml"), "-o", str(outdir)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1, done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and "No space left on device" in done.stderr, done.stderr
+    assert "Traceback" not in done.stderr
+    assert (outdir / "sweep_flip_sweep.rrd").read_bytes() == b"a good old recording"
+    assert not [p.name for p in outdir.iterdir() if p.name.startswith(".")]
+    if free_kb == 4:
+        assert (outdir / "results.csv").read_text() == "good old results\n"

@@ -14,9 +14,7 @@ Every view's origin is an entity subtree that exists (tested: tests/test_visuals
 from __future__ import annotations
 
 import math
-import os
 import re
-import uuid
 from pathlib import Path
 
 import numpy as np
@@ -135,21 +133,24 @@ def _spin_component(shown: list[CaseOutcome]) -> int:
 
 
 def write_comparison(outcomes: list[CaseOutcome], results: Table, path: Path, title: str) -> Path:
-    """One recording comparing up to ``MAX_COMPARED`` cases (atomically); ``results``: their
-    results table (``rotlab.sweep.report.rows``)."""
+    """One recording comparing up to ``MAX_COMPARED`` cases; ``results``: their results table
+    (``rotlab.sweep.report.rows``).  Written as a run's recording is (``RecordingSink``: every
+    write checked, the file verified, then renamed): a full disk is ``RunFailure``, with no
+    temporary file left and an existing file untouched."""
     import rerun as rr
 
+    from rotlab.recording.sink import RecordingSink
     from rotlab.recording.writer import check_output_path
 
     check_output_path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     shown = [o for o in outcomes if o.t is not None][:MAX_COMPARED]
     header, table = results
     colors = case_colors(results)
     scatters = plots(results, colors)
+    sink = RecordingSink(path, application_id="rotlab-sweep")
     try:
-        rec = rr.RecordingStream("rotlab-sweep", recording_id=uuid.uuid4())
-        rec.save(tmp, default_blueprint=blueprint(results, shown, scatters))
+        sink.open(blueprint(results, shown, scatters))
+        rec = sink.rec
         md = [f"# {title or 'sweep'}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
         md += ["| " + " | ".join(f"{v:.4g}" if isinstance(v, float) else str(v) for v in r) + " |" for r in table]
         rec.log("/sweep", rr.TextDocument("\n".join(md), media_type="text/markdown"), static=True)
@@ -164,6 +165,7 @@ def write_comparison(outcomes: list[CaseOutcome], results: Table, path: Path, ti
             with np.errstate(divide="ignore"):
                 log_drift = np.log10(np.maximum(np.abs(o.energy_drift), LOG_FLOOR))
             rec.send_columns(f"/compare/energy_drift/case_{o.index}", index, rr.Scalars.columns(scalars=log_drift))
+            sink.drain()  # a case at a time: a full disk is found at the case that meets it
         for param, views in scatters.items():
             for column, s in views.items():
                 base = f"/results/{slug(param)}/{column}"
@@ -171,13 +173,12 @@ def write_comparison(outcomes: list[CaseOutcome], results: Table, path: Path, ti
                 rec.log(f"{base}/axes", rr.LineStrips2D(s.axes, colors=[sc.AXIS_COLOR], radii=[0.003]), static=True)
                 rec.log(f"{base}/ticks", rr.Points2D(s.tick_positions, labels=s.tick_labels, radii=[0.0],
                                                      colors=[AXIS_TRACE]), static=True)
-        rec.flush()
-        rec.disconnect()
-        os.replace(tmp, path)
+        final = sink.close()
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        sink.abort()
         raise
-    return path
+    assert final is not None
+    return final
 
 
 def _case_name(header: list[str], row: list[object]) -> str:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 from rotlab.sweep.runner import CaseOutcome
@@ -59,17 +60,31 @@ def write_results(results: Table, outdir: Path) -> list[Path]:
 
     header, table = results
     csv_path, parquet_path = outdir / "results.csv", outdir / "results.parquet"
-    tmp = csv_path.with_name(f".{csv_path.name}.{os.getpid()}.tmp")
-    with tmp.open("w", newline="", encoding="utf-8") as f:
-        writer = csv.writer(f)
-        writer.writerow(header)
-        writer.writerows(table)
-    os.replace(tmp, csv_path)
+
+    def write_csv(tmp: Path) -> None:
+        with tmp.open("w", newline="", encoding="utf-8") as f:
+            writer = csv.writer(f)
+            writer.writerow(header)
+            writer.writerows(table)
+
     columns = {name: [row[k] if row[k] != "" else None for row in table] for k, name in enumerate(header)}
-    tmp = parquet_path.with_name(f".{parquet_path.name}.{os.getpid()}.tmp")
-    pq.write_table(pa.table(columns), tmp)
-    os.replace(tmp, parquet_path)
+    _atomically({csv_path: write_csv, parquet_path: lambda tmp: pq.write_table(pa.table(columns), tmp)})
     return [csv_path, parquet_path]
+
+
+def _atomically(writers: dict[Path, Callable[[Path], None]]) -> None:
+    """Each ``write`` to a temporary file beside its path, then every file renamed into place:
+    on any failure (a full disk) the temporary files go and the old files stay as they were."""
+    temporary = {path: path.with_name(f".{path.name}.{os.getpid()}.tmp") for path in writers}
+    try:
+        for path, write in writers.items():
+            write(temporary[path])
+    except BaseException:
+        for tmp in temporary.values():
+            tmp.unlink(missing_ok=True)
+        raise
+    for path, tmp in temporary.items():
+        os.replace(tmp, path)
 
 
 def terminal_table(outcomes: list[CaseOutcome], how: str, results: Table) -> str:
