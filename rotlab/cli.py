@@ -170,12 +170,19 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     scene = build_scene(scenario)
     bar = None if quiet else StreamProgress(config.name)
     sink = RecordingSink(target, live)
+    if sink.unreached is not None:
+        if target is None:
+            sink.abort()
+            raise RunFailure(f"{sink.unreached}, and no -o FILE was given: nothing was run (start a viewer, or add -o run.rrd)")
+        typer.echo(f"rotlab: {sink.unreached}: the run goes to {target} only", err=True)
     serve = (lambda: _serve_until_interrupted(sink.web_url)) if serve_web else None  # the server lives as long as the stream
     run, writing, final = api.record(scene, sink, progress=bar, timeout=timeout, before_close=serve)
     if sink.live_problem is not None:
         typer.echo(f"rotlab: {sink.live_problem}" + ("; the file has every sample" if target is not None else ""), err=True)
     if not quiet:
-        where = sink.web_url or ("viewer spawned" if spawn else connect)
+        where = sink.web_url or ("viewer spawned" if sink.live.spawn else sink.live.connect)
+        if where and sink.live_problem is not None:
+            where += " (given up during the run)"
         for line in summary_lines(run, config, final, time.perf_counter() - started, writing, where):
             typer.echo(line)
     if run.stats.failure:

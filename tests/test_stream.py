@@ -609,3 +609,24 @@ def test_a_sweep_onto_a_full_disk_ends_like_a_run(full_tmpfs, free_kb):
     assert not [p.name for p in outdir.iterdir() if p.name.startswith(".")]
     if free_kb == 4:
         assert (outdir / "results.csv").read_text() == "good old results\n"
+
+
+def test_connect_to_no_viewer_says_so_at_once_and_writes_the_file(tmp_path):
+    """It took 20 s, printed Rerun's own log lines, and said the run was streamed (exit 0)."""
+    url = f"rerun+http://127.0.0.1:{_free_port()}/proxy"
+    started = time.monotonic()
+    done = _run_cli(str(CONFIGS / "euler.toml"), "-o", "file.rrd", "--connect", "--url", url, cwd=tmp_path)
+    assert time.monotonic() - started < 15.0
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.decode().strip() == f"rotlab: --connect: no viewer answers at {url}: the run goes to file.rrd only"
+    assert "  live " not in done.stdout.decode()  # the summary does not say the run was streamed
+    verify_rrd(tmp_path / "file.rrd")
+
+
+def test_connect_to_no_viewer_without_a_file_runs_nothing(tmp_path):
+    url = f"rerun+http://127.0.0.1:{_free_port()}/proxy"
+    done = _run_cli(str(CONFIGS / "euler.toml"), "--connect", "--url", url, cwd=tmp_path)
+    assert done.returncode == 1
+    assert done.stderr.decode().strip().splitlines() == [f"rotlab: error: --connect: no viewer answers at {url}, and no -o FILE was "
+                                                "given: nothing was run (start a viewer, or add -o run.rrd)"]
+    assert list(tmp_path.iterdir()) == []

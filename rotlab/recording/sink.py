@@ -31,7 +31,7 @@ import queue
 import threading
 import uuid
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import rerun as rr
@@ -64,6 +64,30 @@ def port_in_use(host: str, port: int) -> bool:
                 return True
             raise
     return False
+
+
+def listening(url: str, wait: float) -> bool:
+    """Whether something accepts connections at a viewer's gRPC URL (rerun+http://HOST:PORT/…)
+    within ``wait`` seconds."""
+    import socket
+    import time
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(url.replace("rerun+", "", 1))
+    host, port = parts.hostname or "127.0.0.1", parts.port or 9876
+    deadline = time.monotonic() + wait
+    while True:
+        try:
+            with socket.create_connection((host, port), timeout=0.5):
+                return True
+        except OSError:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.1)
+
+
+CONNECT_WAIT = 2.0  # s: how long --connect's viewer gets to answer before the run goes to the file alone
+SPAWN_WAIT = 15.0  # s: how long a spawned viewer gets to start listening (a software renderer is slow)
 
 
 @dataclass(frozen=True)
@@ -194,6 +218,10 @@ class RecordingSink:
         self.recording_id = str(uuid.uuid4())
         self._file_rec = self._live_rec = None
         self._feed: _LiveFeed | None = None
+        self.unreached: str | None = None  # a viewer asked for that is not there (the run goes on without it)
+        if self.live.spawn:
+            self._spawn_viewer()
+        self._drop_absent_viewers()
         if target is not None:
             self._file_rec = rr.RecordingStream(application_id, recording_id=self.recording_id)
             self._file_rec.set_log_time_enabled(False)
@@ -201,8 +229,6 @@ class RecordingSink:
             self._live_rec = rr.RecordingStream(application_id, recording_id=self.recording_id)
             self._live_rec.set_log_time_enabled(False)
             self._feed = _LiveFeed(self._live_rec)
-        if self.live.spawn:
-            self._spawn_viewer()
         self.rec = self._file_rec if self._feed is None else _Tee(self._file_rec, self._feed)
         self.tmp: Path | None = None
         self._pump: _Pump | None = None
@@ -217,6 +243,18 @@ class RecordingSink:
             self._pump = _Pump(read_fd, self._target_fd)
             self._pump.start()
 
+    def _drop_absent_viewers(self) -> None:
+        """A viewer of --connect that does not answer, or one --spawn started that never listens
+        (no display), is left out before anything is sent to it, and ``unreached`` says so: Rerun
+        would retry for 20 s, print its own log lines and report nothing."""
+        spawned = f"rerun+http://127.0.0.1:{self.live.grpc_port}/proxy"
+        if self.live.spawn and not listening(spawned, SPAWN_WAIT):
+            self.unreached = f"--spawn: the Rerun viewer did not start listening on port {self.live.grpc_port} within {SPAWN_WAIT:g} s (no display?)"
+            self.live = replace(self.live, spawn=False)
+        if self.live.connect is not None and not listening(self.live.connect, CONNECT_WAIT):
+            self.unreached = f"--connect: no viewer answers at {self.live.connect}"
+            self.live = replace(self.live, connect=None)
+
     def _spawn_viewer(self) -> None:
         """Start a Rerun viewer listening on the gRPC port (before any work: a missing viewer is
         a one-line error, not a lost run)."""
@@ -225,8 +263,7 @@ class RecordingSink:
 
         executable = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
         try:
-            rr.spawn(port=self.live.grpc_port, connect=False, hide_welcome_screen=True, executable_path=executable,
-                     recording=self._live_rec)
+            rr.spawn(port=self.live.grpc_port, connect=False, hide_welcome_screen=True, executable_path=executable)
         except Exception as exc:  # noqa: BLE001 — Rerun raises RuntimeError/OSError with a long help text
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise RunFailure(f"--spawn: could not start the Rerun viewer ({first})") from None
