@@ -106,20 +106,6 @@ def _positive(name: str, value: float | None) -> None:
         raise InputError(name, f"must be a positive number (got {value})")
 
 
-def _check_ports(live, in_use) -> None:
-    """--serve-web's two ports must be free (one line naming the option, before anything runs)."""
-    from rotlab.errors import InputError
-
-    for option, host, number in (("--port", live.bind, live.grpc_port), ("--web-port", "0.0.0.0", live.web_port)):
-        try:
-            busy = in_use(host, number)
-        except (OSError, ValueError) as exc:  # an address this machine does not have, or no address
-            raise InputError(f"--bind {live.bind}", f"cannot listen there ({exc}): give an address of this machine, e.g. 127.0.0.1") from None
-        if busy:
-            raise InputError(f"{option} {number}", "the port is in use by another program: choose another, e.g. "
-                                                   f"{option} {number + 1}")
-
-
 def _serve_until_interrupted(url: str | None) -> None:
     """Keep the web viewer's server up (it holds the recording) until Ctrl-C."""
     import time
@@ -142,7 +128,7 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
         from rotlab.errors import InputError, Interrupted, RunFailure
         from rotlab.progress import StreamProgress
         from rotlab.recording.arrow import withhold_pandas
-        from rotlab.recording.sink import LOOPBACK, LiveOptions, RecordingSink, port_in_use
+        from rotlab.recording.sink import LOOPBACK, LiveOptions, RecordingSink
         from rotlab.recording.writer import check_output_path, check_size, partial_path
         from rotlab.scene.scene import build_scene
         from rotlab.summary import summary_lines
@@ -155,7 +141,7 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     _positive("--max-megabytes", max_megabytes)
     live = LiveOptions(spawn=spawn, connect=connect, serve_web=serve_web, grpc_port=port, web_port=web_port, bind=bind)
     if serve_web:
-        _check_ports(live, port_in_use)
+        live.check_bind()
         if bind != LOOPBACK:
             typer.echo(f"rotlab: --bind {bind}: the run's data server is open to every machine that can reach this one", err=True)
     scenario = api.load(config, method=method, duration=duration, overrides=overrides)
@@ -173,9 +159,9 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     if sink.unreached is not None:
         if target is None:
             sink.abort()
-            raise RunFailure(f"{sink.unreached}, and no -o FILE was given: nothing was run (start a viewer, or add -o run.rrd)")
+            raise RunFailure(f"{sink.unreached}, and no -o FILE was given: nothing was run (add -o run.rrd to keep the run in a file)")
         typer.echo(f"rotlab: {sink.unreached}: the run goes to {target} only", err=True)
-    serve = (lambda: _serve_until_interrupted(sink.web_url)) if serve_web else None  # the server lives as long as the stream
+    serve = (lambda: _serve_until_interrupted(sink.web_url)) if sink.live.serve_web else None  # the server lives as long as the stream
     run, writing, final = api.record(scene, sink, progress=bar, timeout=timeout, before_close=serve)
     if sink.live_problem is not None:
         typer.echo(f"rotlab: {sink.live_problem}" + ("; the file has every sample" if target is not None else ""), err=True)

@@ -628,5 +628,5 @@ def test_connect_to_no_viewer_without_a_file_runs_nothing(tmp_path):
     done = _run_cli(str(CONFIGS / "euler.toml"), "--connect", "--url", url, cwd=tmp_path)
     assert done.returncode == 1
     assert done.stderr.decode().strip().splitlines() == [f"rotlab: error: --connect: no viewer answers at {url}, and no -o FILE was "
-                                                "given: nothing was run (start a viewer, or add -o run.rrd)"]
+                                                "given: nothing was run (add -o run.rrd to keep the run in a file)"]
     assert list(tmp_path.iterdir()) == []

@@ -171,14 +171,22 @@ def test_serve_web_keeps_the_runs_data_on_this_machine(tmp_path):
     verify_rrd(tmp_path / "web.rrd")  # raises unless complete
 
 
-def test_serve_web_refuses_a_busy_port_in_one_line(cli, tmp_path):
+def test_serve_web_on_a_busy_port_says_so_in_one_line_and_writes_the_file(cli, tmp_path):
     import socket
 
     with socket.socket() as holder:
         holder.bind(("127.0.0.1", 0))
         holder.listen()
         port = holder.getsockname()[1]
-        result = cli("run", str(CONFIGS / "euler.toml"), "-o", "web.rrd", "--serve-web", "--port", str(port))
-    assert result.exit_code == 2
-    assert result.stderr.strip() == f"rotlab: error: --port {port}: the port is in use by another program: choose another, e.g. --port {port + 1}"
+        result = cli("run", str(CONFIGS / "euler.toml"), "-o", "web.rrd", "--serve-web", "--port", str(port), "-q")
+        alone = cli("run", str(CONFIGS / "euler.toml"), "--serve-web", "--port", str(port), "-q")
+    assert result.exit_code == 0
+    assert result.stderr.strip() == f"rotlab: --serve-web: --port {port} is in use by another program (choose another), so no web viewer: the run goes to web.rrd only"
+    verify_rrd(tmp_path / "web.rrd")
+    assert alone.exit_code == 1 and "nothing was run" in alone.stderr and len(alone.stderr.strip().splitlines()) == 1
+
+
+def test_serve_web_refuses_an_address_of_another_machine(cli, tmp_path):
+    result = cli("run", str(CONFIGS / "euler.toml"), "-o", "web.rrd", "--serve-web", "--bind", "192.0.2.1")
+    assert result.exit_code == 2 and result.stderr.startswith("rotlab: error: --bind 192.0.2.1: cannot listen there")
     assert not (tmp_path / "web.rrd").exists()

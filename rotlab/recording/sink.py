@@ -101,6 +101,22 @@ class LiveOptions:
     grpc_port: int = 9876
     bind: str = LOOPBACK  # the address --serve-web's gRPC server listens on: this machine only, unless asked
 
+    def check_bind(self) -> None:
+        """``InputError`` unless ``bind`` is an address of this machine (--serve-web listens there)."""
+        from rotlab.errors import InputError
+
+        try:
+            port_in_use(self.bind, 0)
+        except OSError as exc:
+            raise InputError(f"--bind {self.bind}", f"cannot listen there ({exc}): give an address of this machine, e.g. 127.0.0.1") from None
+
+    def busy_port(self) -> str | None:
+        """The first of --serve-web's ports that another program holds, as an option (None: both free)."""
+        for option, host, number in (("--port", self.bind, self.grpc_port), ("--web-port", "0.0.0.0", self.web_port or 9090)):
+            if port_in_use(host, number):
+                return f"{option} {number}"
+        return None
+
     @property
     def any(self) -> bool:
         return self.spawn or self.connect is not None or self.serve_web
@@ -244,13 +260,18 @@ class RecordingSink:
             self._pump.start()
 
     def _drop_absent_viewers(self) -> None:
-        """A viewer of --connect that does not answer, or one --spawn started that never listens
-        (no display), is left out before anything is sent to it, and ``unreached`` says so: Rerun
-        would retry for 20 s, print its own log lines and report nothing."""
+        """A viewer of --connect that does not answer, one --spawn started that never listens (no
+        display), or --serve-web on a port in use, is left out before anything is sent to it, and
+        ``unreached`` says so: Rerun would retry for 20 s, print its own log lines and report
+        nothing, or raise a traceback."""
         spawned = f"rerun+http://127.0.0.1:{self.live.grpc_port}/proxy"
         if self.live.spawn and not listening(spawned, SPAWN_WAIT):
             self.unreached = f"--spawn: the Rerun viewer did not start listening on port {self.live.grpc_port} within {SPAWN_WAIT:g} s (no display?)"
             self.live = replace(self.live, spawn=False)
+        busy = self.live.busy_port() if self.live.serve_web else None
+        if busy is not None:
+            self.unreached = f"--serve-web: {busy} is in use by another program (choose another), so no web viewer"
+            self.live = replace(self.live, serve_web=False)
         if self.live.connect is not None and not listening(self.live.connect, CONNECT_WAIT):
             self.unreached = f"--connect: no viewer answers at {self.live.connect}"
             self.live = replace(self.live, connect=None)
