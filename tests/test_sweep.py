@@ -248,3 +248,17 @@ def test_the_terminal_shows_a_large_sweeps_failing_cases_only(cases, failing):
         more = len(failing) - TERMINAL_ROWS
         assert (f"(and {more:,} more cases that did not pass: see results.csv)" in lines) == (more > 0)
     assert messages == [f"case {k}: FAIL: case {k} broke a bound" for k in sorted(failing)[:TERMINAL_ROWS]]
+
+
+def test_an_rk4_sweep_over_initial_states_with_a_formula_load_runs_and_names_its_failures(cli, write, tmp_path):
+    """The ensemble kernel cannot take formula loads (numba's parallel loop refused the model:
+    a TypeError traceback); such sweeps run case by case, and a formula that fails is named."""
+    text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 10.0, 0.01]\n'
+            '[[loads]]\ntype = "expression"\nframe = "body"\ntorque = ["0", "1e-5*sqrt(omega[1] - 9.995)", "0"]\n'
+            '[time]\nend = 2.0\nsample_rate = 100\n[solver]\nmethod = "rk4"\nstep = 1e-3\n'
+            '[sweep]\n[sweep.parameters]\n"initial.omega[0]" = [0.001, 0.1]\n')
+    result = cli("sweep", str(write("bad.toml", text)), "-o", "out")
+    assert result.exit_code == 1 and "Traceback" not in result.stderr + result.stdout
+    rows = list(csv.DictReader((tmp_path / "out" / "results.csv").open()))
+    assert [r["status"] for r in rows] == ["fail", "fail"]
+    assert all("loads[0].torque[1] = '1e-5*sqrt(omega[1] - 9.995)' is not finite at t = " in r["message"] for r in rows)

@@ -175,8 +175,14 @@ def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases:
 
 
 def ensemble_eligible(p: SweepPlan) -> bool:
-    """Only initial conditions vary, every case is valid, and the method is fixed-step rk4."""
-    return _ensemble_shape(p.base.solver.method, p.base.sweep.parameters) and not any(isinstance(s, InputError) for s in p.scenarios)
+    """Only initial conditions vary, every case is valid, the method is fixed-step rk4, and no
+    load is a compiled formula: numba's parallel loop cannot take the formulas' record nested in
+    the kernels' model (a TypeError while compiling), so those sweeps run case by case."""
+    if not _ensemble_shape(p.base.solver.method, p.base.sweep.parameters) or any(isinstance(s, InputError) for s in p.scenarios):
+        return False
+    from rotlab.scene.scene import build_scene
+
+    return build_scene(p.scenarios[0]).loads.expressions is None
 
 
 def _ensemble_shape(method: object, paths: Iterable[str]) -> bool:
