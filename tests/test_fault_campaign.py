@@ -1,6 +1,7 @@
 """The fault campaign (``rotlab stress --faults``) in CI: a fixed seed, two inputs per category
 (hostile config values and bytes, special files, hostile output paths, bad options, Ctrl-C at a
-random moment), each against the real CLI in its own process.  Every outcome must keep the
+random moment, load formulas that fail, random tops and centres of mass, vectors of the wrong
+length, huge literals, reversed sweep ranges), each against the real CLI in its own process.  Every outcome must keep the
 promises: exit 0/1/2/130, one line and no traceback on failure, no hang, no temporary file left,
 inputs and special files untouched, an existing recording never replaced by a failed run, every
 recording readable."""
@@ -31,3 +32,9 @@ def test_a_broken_promise_is_reported(tmp_path, monkeypatch):
 
     monkeypatch.setattr(faults, "_execute", clobber)
     assert faults.run_attempt(crash).outcome == "input clobbered"
+
+    import random
+
+    failing = next(faults.failing_loads(random.Random(0), 1))  # a load that cannot succeed, "succeeding"
+    monkeypatch.setattr(faults, "_execute", lambda attempt, d, limit: (0, ""))
+    assert faults.run_attempt(failing).outcome == "wrong outcome"

@@ -53,6 +53,7 @@ class Attempt:
     prepare: Callable[[Path], None] | None = None
     interrupt_after: float | None = None
     stop_signal: int = signal.SIGINT
+    expect: Callable[[int, str], str | None] | None = None  # the category's own promise: (exit, stderr) → what broke
 
 
 @dataclass(frozen=True)
@@ -174,6 +175,97 @@ def options(rng: random.Random, count: int) -> Iterator[Attempt]:
                       {"in.toml": config})
 
 
+FREE_BODY = b"[body]\nprincipal_moments = [1.0, 2.0, 2.5]\n[initial]\nomega = [0.1, 0.2, 0.3]\n[time]\nend = 2.0\nsample_rate = 50\n"
+LOAD_METHODS = ("auto", "rk4", "rkmk4", "dop853", "taylor")
+
+
+def _fails_naming(*words: str, code: int = 1) -> Callable[[int, str], str | None]:
+    """The promise of an input that cannot succeed: exit ``code``, and the one line says one of ``words``."""
+    def check(exit_code: int, err: str) -> str | None:
+        if exit_code != code or not any(w in err for w in words):
+            return f"expected exit {code} saying {' or '.join(map(repr, words))}, got exit {exit_code}: {err.strip()[:150]}"
+        return None
+    return check
+
+
+def failing_loads(rng: random.Random, count: int) -> Iterator[Attempt]:
+    """A load formula that is not finite from some time on (or at t = 0), in a random component,
+    frame and method: the run must stop (exit 1) naming that formula — never exit 0."""
+    for k in range(count):
+        a = round(rng.uniform(0.1, 1.9), 3)
+        formula = rng.choice([f"sqrt({a} - t)", f"log({a} - t)", f"({a} - t)**(-0.5)", f"0.01*({a} - t)**0.25",
+                              "1/t", "t**(-1)", "t**(-3)", "log(t)", f"0.1*sqrt({a} - t)*omega[0]"])
+        component, frame, method = rng.randrange(3), rng.choice(["body", "space"]), rng.choice(LOAD_METHODS)
+        torque = ['"0"'] * 3
+        torque[component] = f'"{formula}"'
+        text = FREE_BODY + f'[[loads]]\ntype = "expression"\nframe = "{frame}"\ntorque = [{", ".join(torque)}]\n'.encode()
+        yield Attempt("failing loads", f"{formula} in torque[{component}], {frame}, {method}",
+                      ["run", "in.toml", "-o", "out.rrd", "-q", "--method", method], {"in.toml": text},
+                      # an adaptive method may close in on a pole and stop there, its step collapsed, before any value is not finite
+                      expect=_fails_naming(f"loads[0].torque[{component}] = '{formula}'", f"step size fell below the floating-point resolution at t = {a:.9g}"))
+
+
+def centre_of_mass(rng: random.Random, count: int) -> Iterator[Attempt]:
+    """Random axisymmetric tops, mass and centre-of-mass heights: refused (exit 2, naming
+    body.center_of_mass) exactly when no body has those moments about the fixed point with that
+    mass there (S_c = ½ tr I − I − m r rᵀ not positive semidefinite, computed here apart)."""
+    for k in range(count):
+        a = 10 ** rng.uniform(-5, -2)
+        c = a * rng.uniform(0.1, 1.9)
+        m = 10 ** rng.uniform(-2, 1)
+        z = 10 ** rng.uniform(-3, 0)
+        realisable = 0.5 * (2 * a + c) - a >= -1e-9 * (a + 0.5 * c) and 0.5 * (2 * a + c) - c - m * z * z >= -1e-9 * (a + 0.5 * c)
+        text = (f"[body]\nprincipal_moments = [{a!r}, {a!r}, {c!r}]\nmass = {m!r}\ncenter_of_mass = [0.0, 0.0, {z!r}]\n"
+                "[initial]\nomega = [0.0, 0.0, 50.0]\naxis_angle = [0.3, 0.0, 0.0]\n[[loads]]\ntype = \"gravity\"\n[time]\nend = 0.05\n").encode()
+
+        def expect(code: int, err: str, realisable: bool = realisable) -> str | None:
+            refused = code == 2 and "body.center_of_mass" in err
+            return None if refused != realisable else f"realisable = {realisable}, exit {code}: {err.strip()[:150]}"
+
+        yield Attempt("centre of mass", f"A = {a:.3g}, C = {c:.3g}, m = {m:.3g}, z = {z:.3g}", _run_short("in.toml"), {"in.toml": text}, expect=expect)
+
+
+VECTORS = {"initial.omega": 3, "body.center_of_mass": 3, "initial.quaternion": 4, "initial.axis_angle": 3}
+
+
+def vector_lengths(rng: random.Random, count: int) -> Iterator[Attempt]:
+    """A vector of the wrong length: exit 2, saying how many components it needs and has."""
+    for k in range(count):
+        key = rng.choice(sorted(VECTORS))
+        needed = VECTORS[key]
+        given = rng.choice([n for n in range(1, 7) if n != needed])
+        table, name = key.split(".")
+        line = f"{name} = [{', '.join(['0.1'] * given)}]\n".encode()
+        body = b"[body]\nprincipal_moments = [1.0, 2.0, 2.5]\nmass = 1.0\n"
+        text = (body + line if table == "body" else body + b"[initial]\n" + line) + b"[time]\nend = 1.0\n"
+        yield Attempt("vector lengths", f"{key} of {given}", _run_short("in.toml"), {"in.toml": text},
+                      expect=_fails_naming(f"{key}: needs {needed} components, got {given}", code=2))
+
+
+def huge_literals(rng: random.Random, count: int) -> Iterator[Attempt]:
+    """Integers of 4,301 to 20,000 digits, in the file or in --set: exit 2, one line."""
+    for k in range(count):
+        digits = "9" * rng.randint(4301, 20000)
+        if rng.random() < 0.5:
+            yield Attempt("huge literals", f"{len(digits)} digits in the file", _run_short("in.toml"),
+                          {"in.toml": FREE_BODY.replace(b"end = 2.0", b"end = " + digits.encode())}, expect=_fails_naming("a number too long", code=2))
+        else:
+            yield Attempt("huge literals", f"{len(digits)} digits in --set", [*_run_short("in.toml"), "--set", f"initial.omega[0]={digits}"],
+                          {"in.toml": FREE_BODY}, expect=_fails_naming("a number too long", code=2))
+
+
+def reversed_ranges(rng: random.Random, count: int) -> Iterator[Attempt]:
+    """A sweep's random range with low ≥ high: `rotlab validate` refuses it (exit 2), so the sweep
+    never starts."""
+    for k in range(count):
+        low = round(rng.uniform(0.01, 1.0), 3)
+        high = low if rng.random() < 0.3 else round(low - rng.uniform(0.001, 1.0), 3)
+        kind = rng.choice(["uniform", "log_uniform"]) if high > 0 else "uniform"
+        text = FREE_BODY + f'[sweep]\nsamples = 2\n[sweep.parameters]\n"initial.omega[0]" = {{ {kind} = [{low}, {high}] }}\n'.encode()
+        yield Attempt("reversed ranges", f"{kind} [{low}, {high}]", ["validate", "in.toml"], {"in.toml": text},
+                      expect=_fails_naming("needs low < high", code=2))
+
+
 def signals(rng: random.Random, count: int) -> Iterator[Attempt]:
     """Ctrl-C or SIGTERM (alternately) at a random moment of a run long enough to be caught
     anywhere: start-up, compiling, stepping, converting or writing."""
@@ -192,6 +284,11 @@ CATEGORIES: dict[str, Callable[[random.Random, int], Iterator[Attempt]]] = {
     "output paths": output_paths,
     "options": options,
     "signals": signals,
+    "failing loads": failing_loads,
+    "centre of mass": centre_of_mass,
+    "vector lengths": vector_lengths,
+    "huge literals": huge_literals,
+    "reversed ranges": reversed_ranges,
 }
 
 
@@ -267,6 +364,9 @@ def _classify(attempt: Attempt, d: Path, before: set[str], inputs: dict[str, byt
             problem = _unreadable(d / name)
             if problem:
                 return verdict("corrupt recording", f"{name}: {problem}")
+    broken = attempt.expect(code, err) if attempt.expect is not None else None
+    if broken:
+        return verdict("wrong outcome", broken)
     return verdict("ran" if code == 0 else "clean error", lines[0] if lines else "")
 
 
@@ -300,7 +400,7 @@ def run_campaign(seed: int, count: int, report: Callable[[Verdict], None] | None
 def table(verdicts: list[Verdict]) -> str:
     """Markdown: inputs per category, clean outcomes, and each kind of break (0 is the target)."""
     kinds = ["traceback", "hang", "file lost", "corrupt recording", "input clobbered", "special file replaced",
-             "temp file left", "messy error", "bad exit code"]
+             "temp file left", "messy error", "bad exit code", "wrong outcome"]
     rows = ["| category | inputs | ran | clean errors | " + " | ".join(kinds) + " |", "|---" * (4 + len(kinds)) + "|"]
     for category in dict.fromkeys(v.category for v in verdicts):
         counts = Counter(v.outcome for v in verdicts if v.category == category)
