@@ -630,3 +630,17 @@ def test_connect_to_no_viewer_without_a_file_runs_nothing(tmp_path):
     assert done.stderr.decode().strip().splitlines() == [f"rotlab: error: --connect: no viewer answers at {url}, and no -o FILE was "
                                                 "given: nothing was run (add -o run.rrd to keep the run in a file)"]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_batch_onto_a_full_disk_reports_each_case_and_leaves_no_temporary(full_tmpfs):
+    outdir = full_tmpfs / "out"
+    outdir.mkdir()
+    with (full_tmpfs / "filler").open("wb") as f:
+        try:
+            f.write(b"\0" * (1024 * 1024 - 12 * 1024))
+        except OSError:
+            pass
+    done = subprocess.run(ROTLAB + ["batch", str(CONFIGS / "euler.toml"), "-o", str(outdir)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1 and "Traceback" not in done.stderr + done.stdout
+    assert "could not write the recording" in done.stdout and "No space left on device" in done.stdout
+    assert not [p.name for p in outdir.iterdir() if p.name.startswith(".") or p.suffix == ".rrd"]
