@@ -83,7 +83,7 @@ def run(
     serve_web: Annotated[bool, typer.Option("--serve-web", help="Serve the web viewer (http://127.0.0.1:9090) and stream into it; waits for Ctrl-C at the end.")] = False,
     port: Annotated[int, typer.Option("--port", min=1, max=65535, help="gRPC port of the viewer started by --spawn or the server of --serve-web.")] = 9876,
     web_port: Annotated[int, typer.Option("--web-port", min=1, max=65535, help="HTTP port of --serve-web.")] = 9090,
-    bind: Annotated[str, typer.Option("--bind", help="Address --serve-web's data server listens on. The default, 127.0.0.1, is this machine only; 0.0.0.0 EXPOSES THE RUN to every machine that can reach this one.")] = "127.0.0.1",
+    bind: Annotated[str, typer.Option("--bind", help="Address --serve-web's servers (the web viewer and the run's data) listen on. The default, 127.0.0.1, is this machine only; 0.0.0.0 EXPOSES THE RUN to every machine that can reach this one.")] = "127.0.0.1",
     timeout: Annotated[Optional[float], typer.Option("--timeout", help="Stop the run after SECONDS of wall-clock time (the samples so far are kept).")] = None,
     max_megabytes: Annotated[Optional[float], typer.Option("--max-megabytes", help="Override [output] max_megabytes: the largest recording to start without asking.")] = None,
 ) -> None:

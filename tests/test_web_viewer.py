@@ -163,7 +163,7 @@ def test_serve_web_keeps_the_runs_data_on_this_machine(tmp_path):
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         _served_url(proc)
-        assert _listening(grpc) == {"0100007F"}  # 127.0.0.1 only
+        assert _listening(grpc) == {"0100007F"} and _listening(web) == {"0100007F"}  # 127.0.0.1 only, data and viewer
     finally:
         proc.send_signal(signal.SIGINT)  # --serve-web serves until Ctrl-C, then finishes the file
         _, err = proc.communicate(timeout=60)

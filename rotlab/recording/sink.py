@@ -21,13 +21,17 @@ second stream with the same recording id: the same data, the same blueprint.  Th
 by a thread of its own (``_LiveFeed``): a viewer that stops reading blocks Rerun's gRPC sink
 (sends and flushes alike, for ever, and Ctrl-C cannot reach a thread blocked there), and only
 that thread waits.  A viewer that falls more than ``LIVE_BEHIND`` chunks behind is given up for
-the rest of the run; the file never waits for a viewer.
+the rest of the run; the file never waits for a viewer.  ``--serve-web`` streams to a ``rerun
+--serve-web --bind …`` child process, which serves the web viewer and holds the run for it, on
+loopback unless asked otherwise.  A viewer that is not there when the run starts (no answer,
+no display, a port in use) is left out at once, and ``unreached`` says so.
 """
 
 from __future__ import annotations
 
 import os
 import queue
+import subprocess
 import threading
 import uuid
 import warnings
@@ -86,6 +90,38 @@ def listening(url: str, wait: float) -> bool:
             time.sleep(0.1)
 
 
+def _start_web_server(live: LiveOptions) -> subprocess.Popen:
+    """The ``rerun`` executable serving the web viewer and the run's data, both on ``live.bind``:
+    Rerun's Python calls (``GrpcServerSink``'s host aside, ``serve_web_viewer`` has none) would
+    listen on every interface.  The binary itself, not the ``rerun`` script that would start it as
+    a child of its own: it dies with this process (Linux ``PR_SET_PDEATHSIG``), and in a process
+    group of its own, which ``_stop_web_server`` ends whole."""
+    import shutil
+    import sys
+
+    try:
+        import rerun_cli  # the package rerun-sdk installs the binary with
+
+        binary: Path | None = Path(rerun_cli.__file__).with_name("rerun")
+    except ImportError:
+        binary = None
+    executable = str(binary) if binary is not None and binary.exists() else shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
+    argv = [executable, "--serve-web", "--bind", live.bind, "--port", str(live.grpc_port), "--web-viewer-port", str(live.web_port or 9090)]
+    return subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            preexec_fn=_die_with_parent, start_new_session=True)
+
+
+def _die_with_parent() -> None:
+    """In a child, before exec: SIGKILL it when this process exits (Linux; elsewhere nothing)."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None).prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
 CONNECT_WAIT = 2.0  # s: how long --connect's viewer gets to answer before the run goes to the file alone
 SPAWN_WAIT = 15.0  # s: how long a spawned viewer gets to start listening (a software renderer is slow)
 
@@ -116,6 +152,16 @@ class LiveOptions:
             if port_in_use(host, number):
                 return f"{option} {number}"
         return None
+
+    @property
+    def local_host(self) -> str:
+        """Where this machine reaches --serve-web's servers."""
+        return LOOPBACK if self.bind in ("0.0.0.0", "::", "") else self.bind
+
+    @property
+    def served_url(self) -> str:
+        """The gRPC URL of --serve-web's data server."""
+        return f"rerun+http://{self.local_host}:{self.grpc_port}/proxy"
 
     @property
     def any(self) -> bool:
@@ -235,6 +281,7 @@ class RecordingSink:
         self._file_rec = self._live_rec = None
         self._feed: _LiveFeed | None = None
         self.unreached: str | None = None  # a viewer asked for that is not there (the run goes on without it)
+        self._web_server: subprocess.Popen | None = None
         if self.live.spawn:
             self._spawn_viewer()
         self._drop_absent_viewers()
@@ -272,6 +319,12 @@ class RecordingSink:
         if busy is not None:
             self.unreached = f"--serve-web: {busy} is in use by another program (choose another), so no web viewer"
             self.live = replace(self.live, serve_web=False)
+        if self.live.serve_web:
+            self._web_server = _start_web_server(self.live)
+            if not listening(self.live.served_url, SPAWN_WAIT):
+                self._stop_web_server()
+                self.unreached = f"--serve-web: the Rerun web viewer server did not start within {SPAWN_WAIT:g} s"
+                self.live = replace(self.live, serve_web=False)
         if self.live.connect is not None and not listening(self.live.connect, CONNECT_WAIT):
             self.unreached = f"--connect: no viewer answers at {self.live.connect}"
             self.live = replace(self.live, connect=None)
@@ -300,17 +353,13 @@ class RecordingSink:
             sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{self.live.grpc_port}/proxy"))
         if self.live.connect is not None:
             sinks.append(rr.GrpcSink(self.live.connect))
-        server = None
         if self.live.serve_web:
-            server = rr.GrpcServerSink(bind_ip=self.live.bind, port=self.live.grpc_port)
-            sinks.append(server)
+            sinks.append(rr.GrpcSink(self.live.served_url))
+            self.web_url = f"http://{self.live.local_host}:{self.live.web_port or 9090}/?url={self.live.served_url}"
         self._live_rec.set_sinks(*sinks, default_blueprint=blueprint)
         self._live_rec.send_blueprint(blueprint, make_active=True)
         assert self._feed is not None
         self._feed.start()
-        if server is not None:
-            rr.serve_web_viewer(web_port=self.live.web_port, open_browser=False, connect_to=server.uri)
-            self.web_url = f"http://127.0.0.1:{self.live.web_port or 9090}/?url={server.uri.replace('0.0.0.0', '127.0.0.1')}"
 
     def update_blueprint(self, blueprint: rrb.Blueprint) -> None:
         """Replace the default layout (the final one, from the whole run: plot ranges that the
@@ -345,6 +394,7 @@ class RecordingSink:
         feed = self._feed
         if feed is not None and feed.is_alive() and feed.given_up is None and feed.finish(LIVE_TIMEOUT):
             self._live_rec.disconnect()  # delivered; a feed still waiting on a viewer is left to it
+        self._stop_web_server()
         if self._file_rec is None:
             return
         try:
@@ -387,6 +437,24 @@ class RecordingSink:
         except Exception:  # noqa: BLE001 — the run already failed; the file goes anyway
             pass
         self._remove_tmp()
+
+    def _stop_web_server(self) -> None:
+        """End --serve-web's server (it holds the run for the browser, so it lives until the end)."""
+        import signal
+
+        server, self._web_server = self._web_server, None
+        if server is None:
+            return
+        for signum in (signal.SIGTERM, signal.SIGKILL):
+            try:
+                os.killpg(server.pid, signum)  # its group: a wrapper script's child too
+            except ProcessLookupError:
+                break
+            try:
+                server.wait(timeout=5.0)
+                break
+            except subprocess.TimeoutExpired:
+                continue
 
     def _remove_tmp(self) -> None:
         if self.tmp is not None:
