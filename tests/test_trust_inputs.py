@@ -59,6 +59,19 @@ def test_a_vector_of_the_wrong_length_says_how_many_components(cli, write, text,
     assert words in _refused(cli, write, "v.toml", VALID_BODY + "[time]\nend = 1.0\n" + text)
 
 
+def test_a_long_token_is_read_in_linear_time():
+    """The dotted-key guard backtracked into long tokens: 4,000 digits took 0.28 s, 20,000 took
+    7 s and ran into the 10 s parse limit under load."""
+    import time
+
+    from rotlab.config.loader import _LONG_DOTTED_KEY
+
+    started = time.perf_counter()
+    assert _LONG_DOTTED_KEY.search("end = " + "9" * 200_000) is None
+    assert time.perf_counter() - started < 0.5
+    assert _LONG_DOTTED_KEY.search("a" + ".a" * 64 + " = 1") and not _LONG_DOTTED_KEY.search("a" + ".a" * 62 + " = 1")
+
+
 def test_an_integer_of_5000_digits_is_refused_in_the_file_and_in_set(cli, write):
     digits = "1" * 5000
     assert "a number too long to read" in _refused(cli, write, "big.toml", VALID_BODY + f"[time]\nend = {digits}\n")

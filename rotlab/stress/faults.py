@@ -243,9 +243,9 @@ def vector_lengths(rng: random.Random, count: int) -> Iterator[Attempt]:
 
 
 def huge_literals(rng: random.Random, count: int) -> Iterator[Attempt]:
-    """Integers of 4,301 to 20,000 digits, in the file or in --set: exit 2, one line."""
+    """Integers of 4,301 to 200,000 digits, in the file or in --set: exit 2, one line."""
     for k in range(count):
-        digits = "9" * rng.randint(4301, 20000)
+        digits = "9" * rng.randint(4301, 200_000)
         if rng.random() < 0.5:
             yield Attempt("huge literals", f"{len(digits)} digits in the file", _run_short("in.toml"),
                           {"in.toml": FREE_BODY.replace(b"end = 2.0", b"end = " + digits.encode())}, expect=_fails_naming("a number too long", code=2))
