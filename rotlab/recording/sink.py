@@ -135,7 +135,7 @@ class LiveOptions:
     serve_web: bool = False
     web_port: int | None = None
     grpc_port: int = 9876
-    bind: str = LOOPBACK  # the address --serve-web's gRPC server listens on: this machine only, unless asked
+    bind: str = LOOPBACK  # the address --serve-web's servers listen on: this machine only, unless asked
 
     def check_bind(self) -> None:
         """``InputError`` unless ``bind`` is an address of this machine (--serve-web listens there)."""
@@ -148,8 +148,8 @@ class LiveOptions:
 
     def busy_port(self) -> str | None:
         """The first of --serve-web's ports that another program holds, as an option (None: both free)."""
-        for option, host, number in (("--port", self.bind, self.grpc_port), ("--web-port", "0.0.0.0", self.web_port or 9090)):
-            if port_in_use(host, number):
+        for option, number in (("--port", self.grpc_port), ("--web-port", self.web_port or 9090)):
+            if port_in_use(self.bind, number):
                 return f"{option} {number}"
         return None
 
@@ -159,8 +159,8 @@ class LiveOptions:
         return LOOPBACK if self.bind in ("0.0.0.0", "::", "") else self.bind
 
     @property
-    def served_url(self) -> str:
-        """The gRPC URL of --serve-web's data server."""
+    def local_url(self) -> str:
+        """The gRPC URL of the viewer rotlab starts: --spawn's, or --serve-web's data server."""
         return f"rerun+http://{self.local_host}:{self.grpc_port}/proxy"
 
     @property
@@ -311,8 +311,7 @@ class RecordingSink:
         display), or --serve-web on a port in use, is left out before anything is sent to it, and
         ``unreached`` says so: Rerun would retry for 20 s, print its own log lines and report
         nothing, or raise a traceback."""
-        spawned = f"rerun+http://127.0.0.1:{self.live.grpc_port}/proxy"
-        if self.live.spawn and not listening(spawned, SPAWN_WAIT):
+        if self.live.spawn and not listening(self.live.local_url, SPAWN_WAIT):
             self.unreached = f"--spawn: the Rerun viewer did not start listening on port {self.live.grpc_port} within {SPAWN_WAIT:g} s (no display?)"
             self.live = replace(self.live, spawn=False)
         busy = self.live.busy_port() if self.live.serve_web else None
@@ -321,7 +320,7 @@ class RecordingSink:
             self.live = replace(self.live, serve_web=False)
         if self.live.serve_web:
             self._web_server = _start_web_server(self.live)
-            if not listening(self.live.served_url, SPAWN_WAIT):
+            if not listening(self.live.local_url, SPAWN_WAIT):
                 self._stop_web_server()
                 self.unreached = f"--serve-web: the Rerun web viewer server did not start within {SPAWN_WAIT:g} s"
                 self.live = replace(self.live, serve_web=False)
@@ -350,12 +349,12 @@ class RecordingSink:
             return
         sinks: list = []
         if self.live.spawn:
-            sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{self.live.grpc_port}/proxy"))
+            sinks.append(rr.GrpcSink(self.live.local_url))
         if self.live.connect is not None:
             sinks.append(rr.GrpcSink(self.live.connect))
         if self.live.serve_web:
-            sinks.append(rr.GrpcSink(self.live.served_url))
-            self.web_url = f"http://{self.live.local_host}:{self.live.web_port or 9090}/?url={self.live.served_url}"
+            sinks.append(rr.GrpcSink(self.live.local_url))
+            self.web_url = f"http://{self.live.local_host}:{self.live.web_port or 9090}/?url={self.live.local_url}"
         self._live_rec.set_sinks(*sinks, default_blueprint=blueprint)
         self._live_rec.send_blueprint(blueprint, make_active=True)
         assert self._feed is not None
