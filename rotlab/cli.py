@@ -132,7 +132,7 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
         from rotlab.recording.writer import check_output_path, check_size, partial_path
         from rotlab.scene.scene import build_scene
         from rotlab.summary import summary_lines
-        withhold_pandas()  # pyarrow would import pandas (0.2 s, ~40 MB) to ask if our arrays are Series
+        withhold_pandas()  # pyarrow would import pandas (time and memory) just to ask if our arrays are Series
     interrupts.shield_numba_compilation()
 
     started = time.perf_counter()
@@ -302,7 +302,7 @@ def sweep(
         from rotlab.sweep.report import rows, terminal_table, write_results
 
         keep_heap()  # the ensemble path reports its cases here, and the results table is built here
-        withhold_pandas()  # pyarrow would import pandas (0.2 s, ~40 MB) to ask if our arrays are Series
+        withhold_pandas()  # pyarrow would import pandas (time and memory) just to ask if our arrays are Series
         try:
             sweep_plan = plan(config)
             prepare_outdir(outdir)

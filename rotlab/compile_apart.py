@@ -2,17 +2,17 @@
 enters the process that streams the run.
 
 numba keeps what it compiled for the life of the process: LLVM's modules and the JIT's code,
-~40 MB of native memory that neither ``gc.collect()`` nor ``malloc_trim`` returns.  A kernel
-loaded from the on-disk cache costs a fraction of that.  So before a run of ``LONG_RUN`` samples
+native memory that neither ``gc.collect()`` nor ``malloc_trim`` returns.  A kernel loaded from
+the on-disk cache costs a fraction of that.  So before a run of ``LONG_RUN`` samples
 or more (``rotlab run``), the kernels the run calls are *rehearsed* on its first few samples with
 compiling refused: if numba would compile any of them, a child process rehearses the same scene,
-method and settings (compiling and saving every kernel to the cache, ~0.8 s of start-up on top of
-the compilation), and the run then loads them from the cache.  A 10⁷-sample ``euler.toml`` run on
-an empty cache peaked at 328 MB with its kernel compiled in process, 288 MB with it loaded.
+method and settings (compiling and saving every kernel to the cache, at the price of a child's
+start-up on top of the compilation), and the run then loads them from the cache: its memory peak
+is that of loaded kernels, not of the compiler's leftovers.
 
 If the child fails, or its kernels cannot be loaded after it (numba could not write its cache),
-the run compiles in process as before (and reports any error itself).  Ctrl-C or ``--timeout`` during the
-child's compilation kill it.
+the run compiles in process instead (and reports any error itself).  Ctrl-C or ``--timeout``
+during the child's compilation kill it.
 
     python -m rotlab.compile_apart    # the child: a pickled (scenario, method, settings) on stdin
 """

@@ -12,8 +12,8 @@ from typing import NoReturn
 def leave(code: object) -> NoReturn:
     """End the process with ``code`` (``sys.exit``'s meaning) once every file rotlab wrote is
     finished: the atexit handlers run and the output streams are flushed, then ``os._exit`` skips
-    the interpreter's teardown of numba's, LLVM's and Rerun's objects, ~0.2 s of a 1 s run
-    (`rotlab run configs/lagrange.toml`, measured).  No rotlab output depends on that teardown, and
+    the interpreter's teardown of numba's, LLVM's and Rerun's objects, a sizeable share of a
+    short run's wall time.  No rotlab output depends on that teardown, and
     a signal that arrives there can no longer end the process by itself (exit −2)."""
     if code is None:
         status = 0

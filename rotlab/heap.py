@@ -1,12 +1,13 @@
 """Keep glibc's heap between NumPy's temporaries, in rotlab's worker processes.
 
-A sweep worker reports its cases with NumPy arithmetic on (cases, samples) arrays of 0.1–1 MB.
-By default glibc gives the top of its heap back to the system once more than 128 kB is free there
-(``M_TRIM_THRESHOLD``) and maps large blocks afresh (``M_MMAP_THRESHOLD``), so every temporary of
-that size faults its pages in again: the report ran 1.7× slower than with the memory kept
-(docs/benchmarks.md, "Sweeps: what a case costs").  ``keep_heap`` raises both thresholds: blocks up
-to 32 MB come from the heap, and up to 64 MB of free heap is kept for the next one.  Only for
-rotlab's own processes (workers, the sweep command): a library user's process is left alone.
+A sweep worker reports its cases with NumPy arithmetic on (cases, samples) arrays larger than
+glibc's default thresholds.  By default glibc gives the top of its heap back to the system once
+more than 128 kB is free there (``M_TRIM_THRESHOLD``) and maps large blocks afresh
+(``M_MMAP_THRESHOLD``), so every such temporary faults its pages in again, a cost that keeping
+the memory avoids (docs/benchmarks.md, "Sweeps: what a case costs").  ``keep_heap`` raises both
+thresholds: blocks up to 32 MB come from the heap, and up to 64 MB of free heap is kept for the
+next one.  Only for rotlab's own processes (workers, the sweep command): a library user's
+process is left alone.
 """
 
 from __future__ import annotations

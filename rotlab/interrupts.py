@@ -92,7 +92,7 @@ class _CompilerLockShield:
 
     The hold follows the lock itself, not a count of events: an event can be lost (a listener
     that raises, e.g. a Ctrl-C delivered inside another listener, stops numba's broadcast), and a
-    count stuck above 0 held Ctrl-C for the rest of the process.  So the hold ends at an end event
+    count stuck above 0 would hold Ctrl-C for the rest of the process.  So the hold ends at an end event
     after which the main thread no longer owns the lock, and a signal that finds no compilation
     under way (a lost end) ends the hold and is delivered at once."""
 

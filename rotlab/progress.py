@@ -1,8 +1,8 @@
 """One progress display for a whole run — integration and writing — on stderr.
 
 On a terminal: a transient rich bar (gone when the run ends) with samples written, rate and ETA,
-how far the integration has got, and "compiling numba kernels" while numba compiles (seconds to a
-minute on a first run, when nothing else moves).  Elsewhere (CI logs, pipes): a plain line on stdout at most
+how far the integration has got, and "compiling numba kernels" while numba compiles (long on a
+first run, when nothing else moves).  Elsewhere (CI logs, pipes): a plain line on stdout at most
 every ``LINE_EVERY`` seconds, none for runs shorter than that (stderr then carries only the
 one-line error of a run that fails).
 """

@@ -349,7 +349,7 @@ def _potential(scene: Scene, unit_q: np.ndarray) -> np.ndarray:
 
 def _rows_times(rows: np.ndarray, matrix: np.ndarray) -> np.ndarray:
     """``rows @ matrix`` for (..., 3) rows and a 3×3 matrix or 3-vector, without BLAS: its threads
-    busy-wait against the recording's encoder thread (measured 25× slower on a loaded 2-core machine)."""
+    busy-wait against the recording's encoder thread, which starves both on a loaded machine."""
     return np.einsum("...j,jk->...k" if matrix.ndim == 2 else "...j,j->...", rows, matrix)
 
 

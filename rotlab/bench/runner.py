@@ -229,7 +229,7 @@ def _auto_runner(scene, t):
 def peer_series(scene, t: np.ndarray, options: Options) -> list[Series]:
     out: list[Series] = []
     ranges = {"RK45": (4, 12), "DOP853": (6, 13), "LSODA": (4, 12), "Radau": (4, 12)}
-    if options.quick:  # Radau left out: its runs take seconds each
+    if options.quick:  # Radau left out: its runs are by far the slowest
         ranges = {"RK45": (6, 12), "DOP853": (6, 12), "LSODA": (6, 12)}
     for method in ranges:
         lo, hi = ranges[method]

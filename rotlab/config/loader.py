@@ -24,7 +24,7 @@ MAX_FILE_BYTES = 16 * 1024 * 1024
 MAX_KEY_PARTS = 64  # dotted keys longer than this are no scenario (and tomllib is quadratic in them)
 PARSE_SECONDS = 10.0  # wall-clock limit on parsing one file (main thread only)
 # a match starts only at a token's start and never gives back a bare key's characters (possessive
-# ++): backtracking into a long token made the search quadratic (a 20,000-digit number: 7 s)
+# ++): backtracking into a long token would make the search quadratic in the token's length
 _LONG_DOTTED_KEY = re.compile(r'(?<![A-Za-z0-9_-])(?:(?:[A-Za-z0-9_-]++|"[^"\n]*"|\'[^\'\n]*\')[ \t]*\.[ \t]*){%d,}' % MAX_KEY_PARTS)
 
 

@@ -70,8 +70,8 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     ``y`` is updated in place; ``counters`` (int64[3]) accumulates [accepted, rejected, f evals].
     ``max_steps`` bounds the attempts, rejected ones included, so that the call always returns
     (Ctrl-C, ``--timeout`` and the step budget are honoured between calls).  The step floor is
-    10 ulp of the larger of |t| and |t_end|: near t = 0 an ulp of t alone (~1e-322 s) let a
-    blow-up take the whole step budget.  A non-finite f(t, y) at a (re)start stops the run.
+    10 ulp of the larger of |t| and |t_end|: near t = 0 an ulp of t alone (~1e-322 s) would let
+    a blow-up take the whole step budget.  A non-finite f(t, y) at a (re)start stops the run.
     Returns (status, next sample index, t, next trial step).
     """
     n = STATE_SIZE
@@ -176,9 +176,9 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
 def _stage_state(s, h, y, K, tmp):
     """tmp ← y + h Σ_{j<s} a_sj K[j], the state at which stage s evaluates f (its time is
     t + c_s h, capped at the step's ``t_last``); for s = 12 (a_12j = b_j) that is y_new.
-    Model-free, so typed once per process; ``rhs_llvm_inlined`` follows it at each site: with
-    ``rhs`` inlined by numba into one stage function per model type, ``rhs`` was typed twice
-    (here and for ``rk4``/``rkmk4``), and that cost 0.6–2.3 s of compiling per model type."""
+    Model-free, so typed once per process; ``rhs_llvm_inlined`` follows it at each site: inlined
+    by numba into one stage function per model type, ``rhs`` would be typed twice (here and for
+    ``rk4``/``rkmk4``), which multiplies compile time per model type."""
     for m in range(STATE_SIZE):
         tmp[m] = y[m]
     for j in range(s):

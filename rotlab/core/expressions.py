@@ -5,9 +5,10 @@ Two ways to run a formula, each where it measured best (docs/benchmarks.md, "exp
   signature (``EXPRESSION_SIGNATURE``) — native speed; the kernels receive its address, an
   integer (the same type for every formula), so they stay compiled and cached on disk, and a
   new formula costs only its own small compilation (also cached on disk, keyed by a hash).  A stack
-  interpreter over the code array kept every kernel cached too, but cost ~0.5 µs per right-hand
-  side for −k ω (rk4's step 37× slower); a jitted function as a kernel argument recompiles every
-  kernel per formula and cannot be cached.
+  interpreter over the code array would keep every kernel cached too, but dispatches every
+  operation at every right-hand side, which makes even a simple load such as −k ω dominate the
+  step; a jitted function as a kernel argument recompiles every kernel per formula and cannot be
+  cached.
 * in Taylor mode (taylor): interpreted, below — each coefficient costs a Cauchy product anyway.
 
 ``series_step`` runs a program in Taylor mode: each

@@ -1,7 +1,7 @@
 """The time a call spends compiling numba kernels or loading them from the on-disk cache, so that
-a run's summary reports integration and writing time apart from it (a first ``rk4`` run in a
-process used to report ~9 s of "integration" that was compilation, and a first ``general.toml``
-run ~6 s of "writing" that was the load views' kernel).
+a run's summary reports integration and writing time apart from it (otherwise the first run in a
+process would report its method kernel's compilation as integration, and the load views'
+kernel's as writing).
 
 numba holds its global compiler lock while it compiles a kernel or loads one from the cache, and
 announces it as the event ``numba:compiler_lock``; the clock sums the outermost holds and can be
@@ -23,7 +23,7 @@ from functools import cache
 
 class _Holds:
     """numba's outermost compiler-lock holds in this process, summed (one listener, registered on
-    first use: installing a listener per run cost ~25 µs of a 200-sample ``simulate``)."""
+    first use: installing a listener per run would add a fixed cost to every short ``simulate``)."""
 
     def __init__(self) -> None:
         self.total = 0.0
@@ -88,7 +88,7 @@ def compile_clock(announce: Callable[[bool], None] | None = None) -> AbstractCon
 
 
 class _Block:
-    """The block of a clock (a class: a generator-based context manager costs ~10 µs a run)."""
+    """The block of a clock (a class: a generator-based context manager costs more per run)."""
 
     def __init__(self, clock: CompileClock) -> None:
         self.clock = clock

@@ -2,12 +2,12 @@
 sweep workers).
 
 Rerun converts every NumPy column with ``pyarrow.array``, whose first call asks "is this a pandas
-Series?" and, to answer, imports pandas if it is installed: 0.2 s and ~40 MB of a process that
-never holds a pandas object (apache/arrow#34994); the first conversion of a Python sequence (a
-sweep's results.parquet) asks again, from C++.  ``withhold_pandas`` lets both probes find no
+Series?" and, to answer, imports pandas if it is installed: start-up time and memory spent in a
+process that never holds a pandas object (apache/arrow#34994); the first conversion of a Python
+sequence (a sweep's results.parquet) asks again, from C++.  ``withhold_pandas`` lets both probes find no
 pandas, so pyarrow answers "not pandas" from then on; pyarrow's pandas APIs
 (``Table.to_pandas``, ``pa.array(series)`` after pandas is in use) import pandas themselves when
-called, as before.  Only for processes whose pyarrow calls are rotlab's: a library user's own
+called, as usual.  Only for processes whose pyarrow calls are rotlab's: a library user's own
 process is left alone.
 """
 

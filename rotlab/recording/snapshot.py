@@ -4,10 +4,10 @@ A headless viewer (``rerun --headless --renderer vulkan``) is started on a free 
 driven through ``rerun.experimental.ViewerClient``: open the file, wait until the viewer reports
 nothing left loading, set the time cursor, then take frames until two consecutive frames are
 identical (the data is drawn, plots have auto-ranged, start-up notices have faded) and keep that
-frame.  A small recording is shot in ~3 s, a large one waits as long as it takes to load (up to
-``SETTLE_LIMIT``).  Works for run and sweep recordings (any recording on the ``sim_time``
-timeline).  Without a GPU this needs Mesa's software Vulkan driver (Debian: mesa-vulkan-drivers,
-libvulkan1).
+frame.  A small recording is shot as soon as the viewer settles, a large one waits as long as
+it takes to load (up to ``SETTLE_LIMIT``).  Works for run and sweep recordings (any recording
+on the ``sim_time`` timeline).  Without a GPU this needs Mesa's software Vulkan driver (Debian:
+mesa-vulkan-drivers, libvulkan1).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ SOFTWARE_VULKAN = "/usr/share/vulkan/icd.d/lvp_icd*.json"
 SETTLE_LIMIT = 120.0  # s: give up waiting for a still frame after this long
 CONNECT_SECONDS = 30.0
 POLL_SECONDS = 0.2
-NOTICE_SECONDS = 5.0  # s after start-up: the viewer's start-up notices have faded (seen up to ~3 s)
+NOTICE_SECONDS = 5.0  # s after start-up: the viewer's start-up notices have faded (with a margin)
 
 
 def parse_size(text: str) -> tuple[int, int]:

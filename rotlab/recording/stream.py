@@ -52,7 +52,7 @@ class ChunkStream:
 
     def flush(self) -> None:
         """Convert and send the pending rows, whole: Ctrl-C (or SIGTERM) is held while a chunk is
-        converted and written (tens of ms) and raised after it, so the file and ``written`` agree."""
+        converted and written (a short block) and raised after it, so the file and ``written`` agree."""
         if not self.pending:
             return
         with interrupts.deferred():

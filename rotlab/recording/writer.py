@@ -7,9 +7,9 @@ holds only the current chunk.  The state and the invariants (``full_rate``) are 
 sample; the derived and visual series (pose, arrows, axis tip, log drifts, |Λ| − 1, Euler angles,
 L in space) at every ``stride``-th sample, collected until ``VISUAL_ROWS`` of them or ``VISUAL_SECONDS``
 have passed: every ``send_columns`` is one chunk in the file, and Rerun holds memory per chunk
-until the end of the file, so ~25 visual entities sent with every 16,384-sample flush at stride
-100 (~150,000 tiny chunks) made a 10⁸-sample run peak 60 MB higher; 4,096 rows at a time keep
-their conversion's transient memory small (16,384 held ~25 MB more at the peak).  The static
+until the end of the file, so sending the many visual entities with every full-rate flush would
+leave a long run with a great many tiny chunks and a higher memory peak; collecting fewer rows
+than a full-rate chunk keeps their conversion's transient memory small.  The static
 part is written twice: at the start (so that a live viewer has the body and the layout at once)
 and at the end, from a thinned copy of the run (``Thinned``: at most MAX_PATH_POINTS samples)
 for the paths and the run report.
@@ -37,8 +37,8 @@ from rotlab.recording.shapes import Ellipsoid, equivalent_ellipsoid
 from rotlab.recording.sink import RecordingSink
 from rotlab.trajectory import RunSummary, Trajectory, concatenate
 
-CHUNK_ROWS = 16384  # rows per send_columns call: Rerun's cost per row is 4× lower than at 4096
-VISUAL_ROWS = 4096  # visual rows converted and sent together: their conversion (labels, geometry) holds ~1.5 kB a row
+CHUNK_ROWS = 16384  # rows per send_columns call: enough that Rerun's fixed cost per call is spread thin
+VISUAL_ROWS = 4096  # visual rows converted and sent together: their conversion (labels, geometry) holds far more per row than the state's
 VISUAL_SECONDS = 0.5  # collected visual rows are sent at least this often (a live viewer keeps up)
 LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
 FULL_RATE = (layout.QUATERNION, layout.OMEGA)  # every sample: the state, and the invariants' drifts (``full_rate``)
@@ -90,7 +90,7 @@ def check_output_path(path: Path, inputs: tuple[Path, ...] = ()) -> None:
 # the full-rate series, and the visual series per sample they keep.
 FULL_RATE_BYTES = 140.0
 VISUAL_BYTES = 320.0
-WRITE_RATE = 0.5e6  # samples per second, full layout (same source; a loaded 2-core machine)
+WRITE_RATE = 0.5e6  # samples per second, full layout (same source, on a loaded machine: the estimate errs long)
 
 
 def estimated_bytes(samples: int, visual_samples: int) -> float:
@@ -204,9 +204,8 @@ class RecordingWriter:
 class Thinned:
     """At most MAX_PATH_POINTS samples of a run (t and principal-frame state), every k-th with
     k doubling as the run grows: the static paths of a run of any length.  The end of a run
-    computes every series of the layout for these samples at once (``finish``), so they set
-    the run's last memory peak: 2·MAX_PATH_POINTS made general.toml's 10⁷-sample run peak at
-    299–301 MB there, MAX_PATH_POINTS at 285 MB."""
+    computes every series of the layout for these samples at once (``finish``), so their number
+    sets the run's last memory peak: hence the cap of MAX_PATH_POINTS."""
 
     def __init__(self, limit: int = MAX_PATH_POINTS) -> None:
         self.limit, self.every = limit, 1

@@ -1,6 +1,7 @@
 """The stress suite.  Each check runs a hard scene and returns a figure held to a stated bound.
 
-Checks marked ``quick`` form the ``--quick`` subset (under two minutes on two cores).
+Checks marked ``quick`` form the ``--quick`` subset, each at its reduced size (``run(True)``): a
+short pass that leaves out the suite's slowest checks.
 """
 
 from __future__ import annotations

@@ -159,8 +159,8 @@ def _rf(x: Decimal, y: Decimal, z: Decimal) -> Decimal:
 def _u0_integral(cn0_sq: Decimal, dn0_sq: Decimal) -> Decimal:
     """R_F(cn0², dn0², 1) for u0, which is used as a float only: to ``_U0_DIGITS`` digits, ~10⁻³³
     relative after the duplication's roundings, so float(u0) is the correctly rounded value
-    except within ~10⁻³³ of a rounding boundary (60 digits took 2.2× as long: 19 duplications,
-    not 12, each dearer)."""
+    except within ~10⁻³³ of a rounding boundary (60 digits would need more duplications, each
+    dearer, for the same float)."""
     with localcontext(prec=_U0_DIGITS):
         return _rf(+cn0_sq, +dn0_sq, Decimal(1))
 
