@@ -272,3 +272,11 @@ def test_command_refuses_unknown_problem_and_section():
     assert result.exit_code == 2 and "unknown problem" in result.output
     result = CliRunner().invoke(app, ["--only", "wp,nope"])
     assert result.exit_code == 2 and "unknown section" in result.output
+
+
+def test_every_bench_problem_is_a_valid_scenario():
+    """A bench problem that no longer validates would take its whole row out of ``rotlab bench``."""
+    from rotlab.bench.problems import all_problems
+
+    for problem in all_problems():
+        assert problem.scenario().title or problem.name
