@@ -53,8 +53,7 @@ class Outcome:
 
 def rehearse(scene: Scene, method: Method, settings: Settings) -> None:
     """Call every numba kernel a streamed run of ``scene`` calls, on its first samples: the
-    method's (streamed, as ``rotlab run`` does) and the recording's for the loads it evaluates
-    with one (``loads_view.compiled``)."""
+    method's (streamed, as ``rotlab run`` does) and the recording's load views (``loads_view``)."""
     from rotlab.methods.stepping import RunControl, SampleTimes, controlled
     from rotlab.recording import loads_view
 
@@ -65,16 +64,13 @@ def rehearse(scene: Scene, method: Method, settings: Settings) -> None:
         solution = method.solve(scene, t, settings, None)
     q_p, w_p = solution.state[:, :4], solution.state[:, 4:7]  # the last window's rows: [valid − len, valid)
     times = np.asarray(t[solution.valid - q_p.shape[0]:solution.valid], dtype=np.float64)
-    for view in filter(loads_view.compiled, loads_view.load_views(scene)):
+    for view in loads_view.load_views(scene):
         loads_view.torques(scene, view, times, q_p, w_p)
 
 
 def needs_rehearsal(scene: Scene, method: Method) -> bool:
-    """Does a run call any numba kernel (a stepping method, or a load the recording evaluates
-    with one)?"""
-    from rotlab.recording import loads_view
-
-    return method.stepping != NO_STEPS or any(map(loads_view.compiled, loads_view.load_views(scene)))
+    """Does a run call any numba kernel (a stepping method, or the recording's view of a load)?"""
+    return method.stepping != NO_STEPS or bool(scene.scenario.loads)
 
 
 def prepare(scene: Scene, method: Method, settings: Settings, announce: Callable[[bool], None] | None = None,

@@ -18,6 +18,7 @@ from rotlab import invariants
 from rotlab.core import quaternion as quat
 from rotlab.methods.base import Solution
 from rotlab.rows import row_dot, row_norm, unit_rows
+from rotlab.scene.loads import potential as potential_energy
 from rotlab.scene.scene import Scene
 
 Result = TypeVar("Result")
@@ -323,7 +324,7 @@ def _quantities(scene: Scene, state: np.ndarray):
     L_p = w_p * scene.moments
     L_space = quat.rotate_to_space_array(unit_q, L_p)
     kinetic = 0.5 * row_dot(w_p, L_p)
-    potential = _potential(scene, unit_q) if scene.has_potential else None
+    potential = potential_energy(scene.loads, unit_q) if scene.has_potential else None
     total = kinetic if potential is None else kinetic + potential
     return unit_q, L_p, L_space, kinetic, potential, total, total - work
 
@@ -338,13 +339,6 @@ def _continuous_euler_angles(q: np.ndarray, previous: np.ndarray | None = None) 
     angles[:, 0] = np.unwrap(angles[:, 0])
     angles[:, 2] = np.unwrap(angles[:, 2])
     return angles[1:] if previous is not None else angles
-
-
-def _potential(scene: Scene, unit_q: np.ndarray) -> np.ndarray:
-    v = np.zeros(unit_q.shape[:-1])
-    for row in scene.loads.forces:
-        v -= _rows_times(quat.rotate_to_space_array(unit_q, np.broadcast_to(row[:3], unit_q.shape[:-1] + (3,))), row[3:])
-    return v
 
 
 def _rows_times(rows: np.ndarray, matrix: np.ndarray) -> np.ndarray:

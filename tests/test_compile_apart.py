@@ -17,7 +17,7 @@ import pytest
 from rotlab.compile_apart import WouldCompile, compiling_refused
 
 # a heavy-free body with an expression torque: the method's kernel and the recording's load-view
-# kernel (``loads_view._torques``, expressions only) both compile on an empty cache
+# kernel (``core.torques.torque_samples``) both compile on an empty cache
 SCENE = """
 [body]
 principal_moments = [1.0, 2.0, 3.0]
@@ -43,8 +43,7 @@ RECORD = """
 import json, sys
 from pathlib import Path
 from rotlab import api, compile_apart
-from rotlab.core import rk4
-from rotlab.recording import loads_view
+from rotlab.core import rk4, torques
 from rotlab.recording.sink import LiveOptions, RecordingSink
 from rotlab.scene.scene import build_scene
 
@@ -53,8 +52,8 @@ scene = build_scene(api.load(Path(sys.argv[1])))
 run, writing, final = api.record(scene, RecordingSink(Path(sys.argv[2]), LiveOptions()))
 print(json.dumps({"kernels": run.stats.details.get("kernels"), "compile_seconds": run.stats.compile_seconds, "final": str(final),
                   "integration_seconds": run.stats.seconds,
-                  "samples": run.samples, "hits": {f.__name__: sum(f.stats.cache_hits.values()) for f in (rk4.rk4_advance, loads_view._torques)},
-                  "overloads": {f.__name__: len(f.overloads) for f in (rk4.rk4_advance, loads_view._torques)}}))
+                  "samples": run.samples, "hits": {f.__name__: sum(f.stats.cache_hits.values()) for f in (rk4.rk4_advance, torques.torque_samples)},
+                  "overloads": {f.__name__: len(f.overloads) for f in (rk4.rk4_advance, torques.torque_samples)}}))
 """
 
 
@@ -79,7 +78,7 @@ def test_on_an_empty_cache_a_long_run_loads_kernels_a_child_compiled(tmp_path):
     first = _record(tmp_path, cache)
     assert first["kernels"] == "compiled in a child process"
     assert first["samples"] == 51 and Path(first["final"]).is_file()
-    assert first["overloads"] == {"rk4_advance": 1, "_torques": 1}
+    assert first["overloads"] == {"rk4_advance": 1, "torque_samples": 1}
     assert first["hits"] == first["overloads"], first  # loaded, not compiled here
     assert first["compile_seconds"] > 0.5  # the child: a Python start-up and rk4's compilation
     again = _record(tmp_path, cache)

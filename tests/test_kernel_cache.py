@@ -51,16 +51,21 @@ def test_an_edit_to_an_inlined_module_recompiles_the_kernels_that_use_it(tmp_pat
     assert _run(copy, cache) == -6.5
     torques = copy / "rotlab" / "core" / "torques.py"
     text = torques.read_text()
-    edited = text.replace("(-damping * y[P0], -damping * y[P0 + 1], -damping * y[P0 + 2])",
-                          "(-2.0 * damping * y[P0], -2.0 * damping * y[P0 + 1], -2.0 * damping * y[P0 + 2])")
+    edited = text.replace("return -damping * y[P0], -damping * y[P0 + 1], -damping * y[P0 + 2]",
+                          "return -2.0 * damping * y[P0], -2.0 * damping * y[P0 + 1], -2.0 * damping * y[P0 + 2]")
     assert edited != text
     torques.write_text(edited)
     assert _run(copy, cache) == -7.0
 
 
-def test_every_module_with_numba_code_is_a_kernel_source():
-    """A module that defines numba code outside KERNEL_SOURCES would be cached on its own file only."""
-    numba_code = re.compile(r"@(njit|overload|intrinsic|cfunc|generated_jit)\b")
-    covered = {path for pattern in kernel_cache.KERNEL_SOURCES for path in PACKAGE.glob(pattern)}
-    defining = {path for path in PACKAGE.rglob("*.py") if numba_code.search(path.read_text())}
-    assert defining and defining <= covered, sorted(str(p.relative_to(PACKAGE)) for p in defining - covered)
+def test_every_module_with_numba_code_is_a_kernel_source(tmp_path):
+    """A module that defines numba code, in any folder, stamps every kernel's cache (a new method
+    module next to the others included); one without does not."""
+    (tmp_path / "methods").mkdir()
+    (tmp_path / "methods" / "new_method.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef step(y):\n    return y\n")
+    (tmp_path / "methods" / "plain.py").write_text("import numba  # typeof only\nX = 1\n")
+    (tmp_path / "scene.py").write_text("@numba.cfunc(SIG)\ndef f(x):\n    return x\n")
+    found = {p.relative_to(tmp_path).as_posix() for p in kernel_cache.kernel_sources(tmp_path)}
+    assert found == {"methods/new_method.py", "scene.py"}
+    shipped = {p.relative_to(PACKAGE).as_posix() for p in kernel_cache.kernel_sources()}
+    assert {"core/rk4.py", "core/torques.py", "scene/formulas.py"} <= shipped

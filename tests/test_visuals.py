@@ -315,12 +315,15 @@ def test_animate_refuses_bad_input(cli, tmp_path, recordings):
     assert not list(tmp_path.glob("*.gif"))
 
 
-def test_load_torques_drawn_with_numpy_equal_the_compiled_kernels():
-    """The recording evaluates the plain load kinds with NumPy (a first general.toml run compiled a
-    view kernel per load kind for ~5 s); each must equal ``core.torques``, compiled, for that load
-    alone: forces, body-frame forces (follower torques), constant and harmonic torques in both
-    frames with windows, a constant folded from w = 0, tables in both frames (knots and window
-    edges sampled exactly, before, inside, after), damping.  Bound: 4 ulp of the largest torque."""
+def test_each_load_drawn_is_its_share_of_the_kernels_torque():
+    """The recording draws each load's torque with the kernels' own compiled torque, the load
+    alone in a model of the scene's type: forces, body-frame forces (follower torques), constant
+    and harmonic torques in both frames with windows, a constant folded from w = 0, tables in both
+    frames (knots and window edges sampled exactly, before, inside, after), damping.  The views
+    add up to the torque of the whole scene; bound: 16 ulp of the largest torque (a sum of 12)."""
+    import numba
+
+    from rotlab.core.torques import torque_samples
     from rotlab.recording import loads_view
     from rotlab.scene.scene import build_scene
 
@@ -349,10 +352,13 @@ def test_load_torques_drawn_with_numpy_equal_the_compiled_kernels():
     w = rng.standard_normal((t.shape[0], 3)) * 20.0
     views = loads_view.load_views(scene)
     assert len(views) == len(loads)
+    whole = np.empty((t.shape[0], 3))
+    torque_samples(t, q, w, scene.model, whole)  # the kernels' torque of all the loads together
+    total = np.zeros_like(whole)
     for view in views:
-        drawn = loads_view.array_torques(view.arrays, t, q, w)
-        compiled = np.empty_like(drawn)
-        loads_view._torques(t, q, w, view.model, compiled)
-        scale = max(np.max(np.abs(compiled)), 1e-300)
-        assert np.max(np.abs(drawn - compiled)) <= 4 * np.finfo(float).eps * scale, view.description
-        assert np.count_nonzero(np.any(compiled != 0.0, axis=1)) > 50, view.description  # the samples exercise the load
+        assert numba.typeof(view.model) == numba.typeof(scene.model)  # one compiled specialisation for every view
+        drawn = loads_view.torques(scene, view, t, q, w)
+        assert np.count_nonzero(np.any(drawn != 0.0, axis=1)) > 50, view.description  # the samples exercise the load
+        total += drawn
+    scale = np.max(np.abs(whole))
+    assert np.max(np.abs(total - whole)) <= 16 * np.finfo(float).eps * scale

@@ -6,11 +6,11 @@ work W):
     Λ̇ = ½ Λ ∘ (0, ω)                                   (Poisson, scalar-first quaternion)
     ṗ = (B − C)/A · q r + M1/A,  q̇ = (C − A)/B · r p + M2/B,  ṙ = (A − B)/C · p q + M3/C
 
-with the torque M of the scene's loads (``rotlab.scene.loads``: constant space-frame forces,
-torque terms with windows, tables, damping; not expressions) — term by term the formulas of
-``rotlab.core.torques``: the one deliberate copy, so that the peers run what a user would write.  The right-hand side is plain Python on floats (``y.tolist()``
-first): on 7 components that is faster than NumPy vector operations, so the peers get the
-quickest right-hand side a Python user would reasonably write, and the ratios are lower bounds.
+with the torque M of the scene's loads from rotlab's own compiled torque (``rotlab.core.torques.
+torque_at``, every load kind), as a user who compiles the torque and writes the rest would do.
+The rest of the right-hand side is plain Python on floats (``y.tolist()`` first): on 7 components
+that is faster than NumPy vector operations, so the peers get the quickest right-hand side a
+Python user would reasonably write, and the ratios are lower bounds.
 
 * ``scipy:RK45``, ``scipy:DOP853``, ``scipy:LSODA``, ``scipy:Radau`` — ``scipy.integrate.solve_ivp``
   with ``t_eval`` = the sample times, ``rtol``, ``atol``; no Jacobian (finite differences for
@@ -21,7 +21,6 @@ quickest right-hand side a Python user would reasonably write, and the ratios ar
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -49,67 +48,22 @@ class PeerSolution:
 
 
 def make_rhs(scene: Scene) -> Callable[[float, np.ndarray], np.ndarray]:
-    """f(t, y) → ẏ for the 7-component state of ``scene`` (principal frame), in plain Python."""
-    a, b, c = (float(x) for x in scene.moments)
-    ea, eb, ec = (b - c) / a, (c - a) / b, (a - b) / c
-    ia, ib, ic = 1.0 / a, 1.0 / b, 1.0 / c
-    loads = scene.loads
-    if loads.expressions is not None or loads.user is not None:
-        raise ValueError("peers write the fixed load kinds by hand; expression loads and Python torques have no peer right-hand side")
-    forces = [tuple(float(v) for v in row) for row in loads.forces]
-    terms = [tuple(float(v) for v in row) for row in loads.terms if np.any(row[3:9] != 0.0)]
-    tables = [(row[0], row[1], row[2], loads.table_t[int(row[3]):int(row[4])].tolist(), loads.table_v[int(row[3]):int(row[4])].tolist())
-              for row in loads.tables]
-    damping = float(loads.damping)
-    free = not forces and not terms and not tables and damping == 0.0
+    """f(t, y) → ẏ for the 7-component state of ``scene`` (principal frame): Euler and Poisson in
+    plain Python, the loads' torque compiled (``torque_at``; not called for a torque-free body)."""
+    from rotlab.core.state import STATE_SIZE
+    from rotlab.core.torques import torque_at
 
-    if free:
-        def f_free(t: float, y: np.ndarray) -> np.ndarray:
-            q0, q1, q2, q3, p, q, r = y.tolist()
-            return np.array([
-                -0.5 * (q1 * p + q2 * q + q3 * r),
-                0.5 * (q0 * p + q2 * r - q3 * q),
-                0.5 * (q0 * q + q3 * p - q1 * r),
-                0.5 * (q0 * r + q1 * q - q2 * p),
-                ea * q * r,
-                eb * r * p,
-                ec * p * q,
-            ])
-
-        return f_free
+    ea, eb, ec, ia, ib, ic = scene.model.euler.tolist()
+    model = scene.model
+    free = not scene.scenario.loads and scene.loads.user is None
+    y8 = np.zeros(STATE_SIZE)
 
     def f(t: float, y: np.ndarray) -> np.ndarray:
         q0, q1, q2, q3, p, q, r = y.tolist()
         mx = my = mz = 0.0
-        for px, py, pz, fx, fy, fz in forces:  # p × (Rᵀ F)
-            bx, by, bz = _to_body(q0, q1, q2, q3, fx, fy, fz)
-            mx += py * bz - pz * by
-            my += pz * bx - px * bz
-            mz += px * by - py * bx
-        for frame, on, off, ox, oy, oz, ax, ay, az, w, phase in terms:
-            if on <= t < off:
-                tx, ty, tz = ox, oy, oz
-                if w != 0.0:
-                    s = math.sin(w * t + phase)
-                    tx += ax * s
-                    ty += ay * s
-                    tz += az * s
-                if frame != 0.0:
-                    tx, ty, tz = _to_body(q0, q1, q2, q3, tx, ty, tz)
-                mx += tx
-                my += ty
-                mz += tz
-        for frame, on, off, tt, tv in tables:
-            if on <= t < off:
-                tx, ty, tz = _table(tt, tv, t)
-                if frame != 0.0:
-                    tx, ty, tz = _to_body(q0, q1, q2, q3, tx, ty, tz)
-                mx += tx
-                my += ty
-                mz += tz
-        mx -= damping * p
-        my -= damping * q
-        mz -= damping * r
+        if not free:
+            y8[:7] = y
+            mx, my, mz = torque_at(t, y8, model)
         return np.array([
             -0.5 * (q1 * p + q2 * q + q3 * r),
             0.5 * (q0 * p + q2 * r - q3 * q),
@@ -121,30 +75,6 @@ def make_rhs(scene: Scene) -> Callable[[float, np.ndarray], np.ndarray]:
         ])
 
     return f
-
-
-def _to_body(q0: float, q1: float, q2: float, q3: float, x: float, y: float, z: float) -> tuple[float, float, float]:
-    """Rᵀ v = Λ̃ ∘ v ∘ Λ (space → body), as ``rotlab.core.quaternion.rotate_to_body``."""
-    q1, q2, q3 = -q1, -q2, -q3
-    tx = 2.0 * (q2 * z - q3 * y)
-    ty = 2.0 * (q3 * x - q1 * z)
-    tz = 2.0 * (q1 * y - q2 * x)
-    return (x + q0 * tx + (q2 * tz - q3 * ty), y + q0 * ty + (q3 * tx - q1 * tz), z + q0 * tz + (q1 * ty - q2 * tx))
-
-
-def _table(tt: list[float], tv: list[list[float]], t: float) -> tuple[float, float, float]:
-    """Piecewise-linear table value, zero outside [tt[0], tt[-1]) (``rotlab.core.torques.table_value``)."""
-    if t < tt[0] or t >= tt[-1]:
-        return 0.0, 0.0, 0.0
-    lo, hi = 0, len(tt) - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if tt[mid] <= t:
-            lo = mid
-        else:
-            hi = mid
-    s = (t - tt[lo]) / (tt[hi] - tt[lo])
-    return tuple(tv[lo][k] + s * (tv[hi][k] - tv[lo][k]) for k in range(3))  # type: ignore[return-value]
 
 
 def initial_state7(scene: Scene) -> np.ndarray:

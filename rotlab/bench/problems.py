@@ -65,6 +65,7 @@ import numpy as np
 
 from rotlab.config.models import Scenario
 from rotlab.core import quaternion as quat
+from rotlab.scene.loads import potential
 from rotlab.scene.scene import Scene
 from rotlab.shipped import shipped_configs
 
@@ -297,11 +298,9 @@ def energy_error(scene: Scene, state: np.ndarray) -> float:
     q = state[:, 0:4] / np.linalg.norm(state[:, 0:4], axis=1, keepdims=True)
     w = state[:, 4:7]
     kinetic = 0.5 * np.sum(scene.moments * w * w, axis=1)
-    potential = np.zeros(q.shape[0])
-    for row in scene.loads.forces:
-        potential -= quat.rotate_to_space_array(q, np.broadcast_to(row[:3], (q.shape[0], 3))) @ row[3:]
-    total = kinetic + potential
-    scale = max(abs(total[0]), kinetic[0] + abs(potential[0])) or 1.0
+    v = potential(scene.loads, q)
+    total = kinetic + v
+    scale = max(abs(total[0]), kinetic[0] + abs(v[0])) or 1.0
     return float(np.max(np.abs(total - total[0]))) / scale
 
 

@@ -10,27 +10,33 @@ was not.
 
 So the source stamp of every rotlab kernel, and of the generated load formulas (which call
 ``rotlab.core.expressions``), is numba's own stamp plus one digest of the contents of every
-kernel source (``KERNEL_SOURCES``): editing any of them recompiles every kernel once.  Installed
+kernel source (``kernel_sources``: every module that defines compiled code): editing any of them recompiles every kernel once.  Installed
 by ``rotlab.core`` before any kernel is defined.
 """
 
 from __future__ import annotations
 
 import hashlib
+import re
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1]
-KERNEL_SOURCES = ("core/**/*.py", "recording/loads_view.py", "scene/formulas.py")  # every module with numba code (formulas: the generated modules' template)
+NUMBA_CODE = re.compile(rb"@(?:numba\.)?(?:njit|overload|intrinsic|cfunc|generated_jit)\b")  # a definition of compiled code
 OURS = ("rotlab.", "rotlab_formulas_")  # module names of the functions stamped here
+
+
+def kernel_sources(package: Path = PACKAGE) -> list[Path]:
+    """Every module of ``package`` that defines numba code, wherever it lives (``scene/formulas.py``
+    is the generated formula modules' template)."""
+    return [path for path in sorted(package.rglob("*.py")) if NUMBA_CODE.search(path.read_bytes())]
 
 
 def sources_digest() -> str:
     """sha256 of the kernel sources' relative paths and contents."""
     digest = hashlib.sha256()
-    for pattern in KERNEL_SOURCES:
-        for path in sorted(PACKAGE.glob(pattern)):
-            digest.update(path.relative_to(PACKAGE).as_posix().encode())
-            digest.update(path.read_bytes())
+    for path in kernel_sources(PACKAGE):
+        digest.update(path.relative_to(PACKAGE).as_posix().encode())
+        digest.update(path.read_bytes())
     return digest.hexdigest()
 
 

@@ -24,11 +24,15 @@ from numba.extending import overload
 from rotlab.core.expressions import call_formulas, series_step, switch_limit
 from rotlab.core.faults import FORMULA_NOT_FINITE, record
 from rotlab.core.quaternion import N_PRODUCTS, qmul, rotate_quadratic, rotate_to_body
-from rotlab.core.state import P0, Q0
+from rotlab.core.state import P0, Q0, STATE_SIZE
 
 # columns of a torque term, a table, an expression load (written by rotlab.scene.loads)
+F_POINT, F_FORCE = 0, 3
+F_COLUMNS = 6
 T_FRAME, T_ON, T_OFF, T_OFFSET, T_AMP, T_W, T_PHASE = 0, 1, 2, 3, 6, 9, 10
+T_COLUMNS = 11
 TB_FRAME, TB_ON, TB_OFF, TB_FIRST, TB_STOP = 0, 1, 2, 3, 4
+TB_COLUMNS = 5
 EX_FRAME, EX_ON, EX_OFF, EX_FORCE, EX_POINT, EX_UP, EX_UP2, EX_RATE, EX_PROGRAMS = 0, 1, 2, 3, 4, 7, 10, 13, 14
 EX_COLUMNS = 20
 N_INPUTS = 14
@@ -119,68 +123,87 @@ def _user_impl(t, y, user):
 def _forces_impl(y, forces):
     if isinstance(forces, types.NoneType):
         return lambda y, forces: (0.0, 0.0, 0.0)
-
-    def impl(y, forces):
-        cx = cy = cz = 0.0
-        for k in range(forces.shape[0]):
-            fx, fy, fz = rotate_to_body(y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3], forces[k, 3], forces[k, 4], forces[k, 5])
-            px, py, pz = forces[k, 0], forces[k, 1], forces[k, 2]
-            cx += py * fz - pz * fy
-            cy += pz * fx - px * fz
-            cz += px * fy - py * fx
-        return cx, cy, cz
-
-    return impl
+    return lambda y, forces: forces_torque(y, forces)
 
 
 @overload(_terms, inline="always")
 def _terms_impl(t, y, terms):
     if isinstance(terms, types.NoneType):
         return lambda t, y, terms: (0.0, 0.0, 0.0)
-
-    def impl(t, y, terms):
-        nx = ny = nz = 0.0
-        for k in range(terms.shape[0]):
-            if terms[k, T_ON] <= t < terms[k, T_OFF]:
-                mx, my, mz = terms[k, T_OFFSET], terms[k, T_OFFSET + 1], terms[k, T_OFFSET + 2]
-                if terms[k, T_W] != 0.0:
-                    s = np.sin(terms[k, T_W] * t + terms[k, T_PHASE])
-                    mx += terms[k, T_AMP] * s
-                    my += terms[k, T_AMP + 1] * s
-                    mz += terms[k, T_AMP + 2] * s
-                mx, my, mz = _in_body(y, terms[k, T_FRAME], mx, my, mz)
-                nx += mx
-                ny += my
-                nz += mz
-        return nx, ny, nz
-
-    return impl
+    return lambda t, y, terms: terms_torque(t, y, terms)
 
 
 @overload(_tables, inline="always")
 def _tables_impl(t, y, tables, table_t, table_v):
     if isinstance(tables, types.NoneType):
         return lambda t, y, tables, table_t, table_v: (0.0, 0.0, 0.0)
-
-    def impl(t, y, tables, table_t, table_v):
-        nx = ny = nz = 0.0
-        for k in range(tables.shape[0]):
-            if tables[k, TB_ON] <= t < tables[k, TB_OFF]:
-                mx, my, mz = table_value(table_t, table_v, int(tables[k, TB_FIRST]), int(tables[k, TB_STOP]), t)
-                mx, my, mz = _in_body(y, tables[k, TB_FRAME], mx, my, mz)
-                nx += mx
-                ny += my
-                nz += mz
-        return nx, ny, nz
-
-    return impl
+    return lambda t, y, tables, table_t, table_v: tables_torque(t, y, tables, table_t, table_v)
 
 
 @overload(_damping, inline="always")
 def _damping_impl(y, damping):
     if isinstance(damping, types.NoneType):
         return lambda y, damping: (0.0, 0.0, 0.0)
-    return lambda y, damping: (-damping * y[P0], -damping * y[P0 + 1], -damping * y[P0 + 2])
+    return lambda y, damping: damping_torque(y, damping)
+
+
+# The torque of each load group: typed once per process (their argument types do not depend on
+# the scene) and cached on disk, then inlined by LLVM (``forceinline``) into every kernel and the
+# recording's load view, which call them through the overloads above.
+
+
+@njit(cache=True, forceinline=True)
+def forces_torque(y, forces):
+    """Σ_k p_k × (Rᵀ F_k): constant space-frame forces F (columns F_FORCE) at body points p
+    (columns F_POINT)."""
+    cx = cy = cz = 0.0
+    for k in range(forces.shape[0]):
+        fx, fy, fz = rotate_to_body(y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3], forces[k, F_FORCE], forces[k, F_FORCE + 1], forces[k, F_FORCE + 2])
+        px, py, pz = forces[k, F_POINT], forces[k, F_POINT + 1], forces[k, F_POINT + 2]
+        cx += py * fz - pz * fy
+        cy += pz * fx - px * fz
+        cz += px * fy - py * fx
+    return cx, cy, cz
+
+
+@njit(cache=True, forceinline=True)
+def terms_torque(t, y, terms):
+    """Σ over terms acting at t (on ≤ t < off) of offset + amplitude · sin(w t + φ), body
+    components (Rᵀ M for a space-frame term)."""
+    nx = ny = nz = 0.0
+    for k in range(terms.shape[0]):
+        if terms[k, T_ON] <= t < terms[k, T_OFF]:
+            mx, my, mz = terms[k, T_OFFSET], terms[k, T_OFFSET + 1], terms[k, T_OFFSET + 2]
+            if terms[k, T_W] != 0.0:
+                s = np.sin(terms[k, T_W] * t + terms[k, T_PHASE])
+                mx += terms[k, T_AMP] * s
+                my += terms[k, T_AMP + 1] * s
+                mz += terms[k, T_AMP + 2] * s
+            mx, my, mz = _in_body(y, terms[k, T_FRAME], mx, my, mz)
+            nx += mx
+            ny += my
+            nz += mz
+    return nx, ny, nz
+
+
+@njit(cache=True, forceinline=True)
+def tables_torque(t, y, tables, table_t, table_v):
+    """Σ over tables acting at t of the piecewise-linear M(t) (``table_value``), body components."""
+    nx = ny = nz = 0.0
+    for k in range(tables.shape[0]):
+        if tables[k, TB_ON] <= t < tables[k, TB_OFF]:
+            mx, my, mz = table_value(table_t, table_v, int(tables[k, TB_FIRST]), int(tables[k, TB_STOP]), t)
+            mx, my, mz = _in_body(y, tables[k, TB_FRAME], mx, my, mz)
+            nx += mx
+            ny += my
+            nz += mz
+    return nx, ny, nz
+
+
+@njit(cache=True, forceinline=True)
+def damping_torque(y, damping):
+    """−k ω."""
+    return -damping * y[P0], -damping * y[P0 + 1], -damping * y[P0 + 2]
 
 
 @overload(_expressions, inline="always")
@@ -308,6 +331,27 @@ def expression_torque(t, y, rows, fn, axes, axes_q, moments):
         ny += my
         nz += mz
     return nx, ny, nz
+
+
+@njit(cache=True)
+def torque_at(t, y, model):
+    """The torque of all of ``model``'s loads at (t, y), body components: the kernels' torque,
+    called from Python (the bench's peers) and by ``torque_samples``."""
+    cx, cy, cz = conservative_torque(y, model)
+    nx, ny, nz = nonconservative_torque(t, y, model)
+    return cx + nx, cy + ny, cz + nz
+
+
+@njit(cache=True)
+def torque_samples(t, q, w, model, out):
+    """out[k] = ``torque_at`` sample k: time t[k], Λ = q[k], ω = w[k] (principal frame)."""
+    y = np.zeros(STATE_SIZE)
+    for k in range(t.shape[0]):
+        for i in range(4):
+            y[Q0 + i] = q[k, i]
+        for i in range(3):
+            y[P0 + i] = w[k, i]
+        out[k, 0], out[k, 1], out[k, 2] = torque_at(t[k], y, model)
 
 
 # ---- Taylor series of the loads (``rotlab.core.taylor``): coefficients in τ = time − t -----------
