@@ -30,7 +30,7 @@ CHILD = r"""
 import sys, tempfile, time
 from pathlib import Path
 import rotlab
-from rotlab.methods.names import METHOD_MODULES
+from rotlab.method_names import METHODS
 from rotlab.methods.registry import get_method
 from rotlab.scene.scene import build_scene
 
@@ -39,7 +39,7 @@ started = time.perf_counter()
 total = 0.0
 out = Path(tempfile.mkdtemp())
 for name in ("euler.toml", "dzhanibekov.toml", "lagrange.toml", "general.toml", "sweep_flip.toml"):
-    for method in METHOD_MODULES:
+    for method in METHODS:
         scenario = rotlab.load(configs / name, method=method, duration=0.5)
         if get_method(method).unsupported(build_scene(scenario)) is not None:
             continue

@@ -93,7 +93,6 @@ def main() -> None:
     import rotlab
     from rotlab.api import _plan
     from rotlab.heap import keep_heap
-    from rotlab.methods.choose import expect_runs
     from rotlab.methods.registry import get_method
     from rotlab.parallel import run_tasks
     from rotlab.scene.scene import build_scene
@@ -117,7 +116,6 @@ def main() -> None:
             sweep[jobs] = (time.perf_counter() - started) / args.cases * 1e6
 
         p = plan(config)
-        expect_runs(args.cases)  # as a sweep worker is told
         keep_heap()  # as a worker does (rotlab.heap)
         for scenario in p.scenarios[-20:]:
             rotlab.simulate(scenario)  # kernels loaded
@@ -143,7 +141,7 @@ def main() -> None:
         report = _median_us(outcomes_of, chunks) / CHUNK_CASES
         fresh = p.cases[3 * third:] or p.cases  # cases auto's cache has not seen (when there are enough)
         tasks = [fresh[k:k + CHUNK_CASES] for k in range(0, min(len(fresh), 20 * CHUNK_CASES), CHUNK_CASES)]
-        worker = _median_us(lambda cases: run_sweep_chunk(p.raw, p.base, p.source, cases, args.cases, *choice), tasks) / CHUNK_CASES
+        worker = _median_us(lambda cases: run_sweep_chunk(p.raw, p.base, p.source, cases, *choice), tasks) / CHUNK_CASES
         stamps: list[float] = []
         begun = time.perf_counter()
         run_tasks(operator.pos, [(1,)] * 2000, 1, preload=(), on_end=lambda end: stamps.append(time.perf_counter() - begun))

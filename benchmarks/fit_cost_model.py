@@ -203,51 +203,6 @@ def error_constants() -> dict:
             "taylor_radians_per_step_range": (min(taylor_rad), max(taylor_rad)), "taylor_order": default_order(1e-10)}
 
 
-FIRST_USE = """
-import sys, time, numpy as np
-import rotlab
-from rotlab.config import load_scenario
-from rotlab.methods.base import Settings
-from rotlab.methods.registry import get_method
-from rotlab.scene.scene import build_scene
-scene = build_scene(load_scenario(sys.argv[1]))
-t = np.linspace(0.0, 0.01, 2)
-for name in sys.argv[2:]:
-    method, order = name.split("-") if "-" in name else (name, None)
-    s = Settings(step=None if method == "taylor" else 0.005, rtol=1e-10, order=None if order is None else int(order))
-    started = time.perf_counter()
-    get_method(method).solve(scene, t, s, None)
-    first = time.perf_counter() - started
-    started = time.perf_counter()
-    get_method(method).solve(scene, t, s, None)
-    print(name, first - (time.perf_counter() - started))
-"""
-
-
-def first_use_costs(repeats: int) -> dict:
-    """numba's first use in a process (``init``) and each kernel's cache load (``load``), from
-    subprocesses running method pairs in both orders (the second of a pair pays its load only)."""
-    import subprocess
-    import sys
-
-    config = str(CONFIGS / "euler.toml")
-    kernels = ("taylor", "dmv-10", "rk4")
-    subprocess.run([sys.executable, "-c", FIRST_USE, config, *kernels], check=True, capture_output=True)  # fill the cache
-    firsts: dict[str, list[float]] = {k: [] for k in kernels}
-    seconds: dict[str, list[float]] = {k: [] for k in kernels}
-    for _ in range(max(3, repeats // 3)):
-        for k in kernels:
-            others = [x for x in kernels if x != k]
-            out = subprocess.run([sys.executable, "-c", FIRST_USE, config, k, *others], check=True, capture_output=True, text=True).stdout.split()
-            times = dict(zip(out[0::2], map(float, out[1::2])))
-            firsts[k].append(times[k])
-            for other in others:
-                seconds[other].append(times[other])
-    load = {k.split("-")[0]: statistics.median(v) for k, v in seconds.items()}  # "dmv-10" → "dmv": every order is one kernel
-    init = statistics.median(statistics.median(firsts[k]) - load[k.split("-")[0]] for k in kernels)
-    return {"first_use": {"init": init, "load": load}}
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=9)
@@ -259,7 +214,6 @@ def main() -> None:
     result.update(dmv_costs(args.repeats))
     result.update(fixed_step_costs(args.repeats))
     result["taylor"] = taylor_costs(args.repeats)
-    result.update(first_use_costs(args.repeats))
     result.update(error_constants())
     print("CONSTANTS = {")
     for key, value in result.items():

@@ -16,7 +16,7 @@ from rotlab.config import load_scenario, parse_scenario
 from rotlab.config.models import Scenario
 from rotlab.errors import Interrupted, RunFailure
 from rotlab.methods.base import ProgressCallback, Settings
-from rotlab.methods.choose import choose_method
+from rotlab.methods.choose import Choices, choose_method
 from rotlab.methods.compile_time import compile_clock
 from rotlab.scene.scene import Scene, build_scene
 from rotlab.trajectory import RunStats, RunSummary, Trajectory, build_trajectory
@@ -29,6 +29,8 @@ if TYPE_CHECKING:
     from rotlab.recording.sink import RecordingSink
 
 Plan = tuple["Method", str, Settings, "np.ndarray"]  # (method, why it runs, its settings, the sample times)
+
+CHOICES = Choices()  # auto's choices, kept by their inputs for every run of this process (a pure function's memo)
 
 
 def load(
@@ -192,7 +194,7 @@ def _plan(scene: Scene, lazy_times: bool = False) -> Plan:
     s, time_ = scene.scenario.solver, scene.scenario.time
     t = SampleTimes(time_.start, time_.end, time_.sample_count) if lazy_times else time_.sample_times()
     settings = Settings.of(s)
-    chosen, reason, settings = choose_method(scene, s.method, settings, t)
+    chosen, reason, settings = choose_method(scene, s.method, settings, t, CHOICES)
     return chosen, reason, settings, t
 
 

@@ -17,7 +17,7 @@ except ImportError:  # pragma: no cover
 
 from rotlab import __version__, interrupts
 from rotlab.bench.command import bench
-from rotlab.methods.names import METHOD_NAMES
+from rotlab.method_names import METHOD_NAMES
 
 app = typer.Typer(
     name="rotlab",
@@ -127,7 +127,7 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
         from rotlab import api
         from rotlab.errors import InputError, Interrupted, RunFailure
         from rotlab.progress import StreamProgress
-        from rotlab.recording.arrow import withhold_pandas
+        from rotlab.arrow import withhold_pandas
         from rotlab.recording.sink import LOOPBACK, LiveOptions, RecordingSink
         from rotlab.recording.writer import check_output_path, check_size, partial_path
         from rotlab.scene.scene import build_scene
@@ -297,8 +297,8 @@ def sweep(
         from rotlab.heap import keep_heap
         from rotlab.outdir import prepare_outdir
         from rotlab.parallel import exit_after_stop
-        from rotlab.recording.arrow import withhold_pandas
-        from rotlab.recording.sweep import write_comparison
+        from rotlab.arrow import withhold_pandas
+        from rotlab.sweep.recording import write_comparison
         from rotlab.sweep.report import rows, terminal_table, write_results
 
         keep_heap()  # the ensemble path reports its cases here, and the results table is built here

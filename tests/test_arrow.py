@@ -1,4 +1,4 @@
-"""pyarrow without pandas in rotlab's own processes (``rotlab.recording.arrow``)."""
+"""pyarrow without pandas in rotlab's own processes (``rotlab.arrow``)."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def test_withheld_pandas_stays_out_and_pyarrow_still_converts_pandas_objects():
     still work when called (they import pandas themselves), categoricals included."""
     out = _python("""
         import sys, numpy as np
-        from rotlab.recording.arrow import withhold_pandas
+        from rotlab.arrow import withhold_pandas
         print(withhold_pandas())
         import rerun as rr
         rr.Scalars.columns(scalars=np.zeros((3, 1)))
@@ -48,7 +48,7 @@ def test_withheld_pandas_stays_out_and_pyarrow_still_converts_pandas_objects():
 def test_withholding_after_pandas_is_in_use_changes_nothing():
     out = _python("""
         import pandas, pyarrow as pa
-        from rotlab.recording.arrow import withhold_pandas
+        from rotlab.arrow import withhold_pandas
         print(withhold_pandas(), pa.array(pandas.Series([1, 2]).astype("category")).type)
     """)
     assert out.split("\n")[0] == "False dictionary<values=int64, indices=int8, ordered=0>"

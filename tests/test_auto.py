@@ -7,8 +7,6 @@ timed (the timings are in docs/benchmarks.md).
 
 from __future__ import annotations
 
-import dataclasses
-
 import subprocess
 import sys
 
@@ -18,7 +16,7 @@ import pytest
 import rotlab
 from rotlab.methods import cost
 from rotlab.methods.base import Settings
-from rotlab.methods.choose import candidates, choose_method, work_of
+from rotlab.methods.choose import Choices, candidates, choose_method, work_of
 from rotlab.scene.scene import build_scene
 from tests.conftest import CONFIGS
 from tests.helpers import same_rotation_error
@@ -32,14 +30,6 @@ def _with(path, rtol: float, **time):
     return sc.model_copy(update=updates)
 
 
-def _warm(sc, *methods: str) -> None:
-    """Load these methods' kernels in this process: auto then compares steady-state costs (a
-    kernel's first use in a process is part of its cost: test_a_single_cli_run_of_a_lagrange_top_uses_exact)."""
-    short = sc.model_copy(update={"time": sc.time.model_copy(update={"end": sc.time.start + 0.01, "sample_rate": None, "samples": 2})})
-    for method in methods:
-        rotlab.simulate(short, method=method)
-
-
 def _error(traj, ref) -> float:
     omega = np.max(np.abs(traj.omega - ref.omega)) / np.max(np.abs(ref.omega))
     return max(float(omega), float(np.max(same_rotation_error(traj.quaternion, ref.quaternion))))
@@ -50,7 +40,6 @@ def test_auto_on_a_free_body_steps_and_meets_rtol(rtol):
     """euler.toml: 2001 samples over 20 s, where stepping is cheaper than exact's set-up and
     per-sample cost; the error against exact stays within 10·rtol."""
     sc = _with(CONFIGS / "euler.toml", rtol)
-    _warm(sc, "taylor", "dmv", "rk4")
     auto, ref = rotlab.simulate(sc), rotlab.simulate(sc, method="exact")
     assert auto.stats.method in ("dmv", "taylor", "rk4")
     assert "least expected cost" in auto.stats.reason and "exact" in auto.stats.reason  # names what it compared
@@ -68,7 +57,6 @@ def test_auto_near_the_separatrix_at_loose_rtol_tightens_the_stepper():
     """At rtol 1e-6 a stepper is cheaper than exact near the separatrix, run at a tolerance
     divided by the amplification there: error within 10·rtol of exact."""
     sc = _with(CONFIGS / "dzhanibekov.toml", 1e-6)
-    _warm(sc, "taylor", "dmv", "rk4")
     auto, ref = rotlab.simulate(sc), rotlab.simulate(sc, method="exact")
     assert auto.stats.method != "exact"
     assert _error(auto, ref) <= 1e-5
@@ -77,9 +65,9 @@ def test_auto_near_the_separatrix_at_loose_rtol_tightens_the_stepper():
 def test_auto_with_an_order_on_the_separatrix_runs_in_few_steps():
     """A spin exactly about the intermediate axis (on the separatrix: the cost model's error
     floor is unbounded) with ``solver.order`` set, so no exact solution: auto's taylor tolerance
-    stops at ``TAYLOR_MIN_TOLERANCE`` instead of rtol / amplification = 1e-303, which ran into the
+    stops at taylor's ``MIN_TOLERANCE`` instead of rtol / amplification = 1e-303, which ran into the
     step budget (2·10⁸ steps, two minutes); the steady spin stays within 10·rtol of exact."""
-    from rotlab.methods.choose import TAYLOR_MIN_TOLERANCE
+    from rotlab.methods.catalog.taylor import MIN_TOLERANCE as TAYLOR_MIN_TOLERANCE
 
     sc = _with(CONFIGS / "euler.toml", 1e-8)
     sc = sc.model_copy(update={"body": sc.body.model_copy(update={"principal_moments": (1.0, 2.0, 3.0)}),
@@ -95,7 +83,6 @@ def test_auto_with_an_order_on_the_separatrix_runs_in_few_steps():
 @pytest.mark.parametrize("rtol", [1e-8, 1e-12])
 def test_auto_on_the_lagrange_top_meets_rtol(rtol):
     sc = _with(CONFIGS / "lagrange.toml", rtol, end=2.0)
-    _warm(sc, "taylor")
     auto, ref = rotlab.simulate(sc), rotlab.simulate(sc, method="exact")
     assert _error(auto, ref) <= 10 * rtol
 
@@ -107,7 +94,6 @@ def test_auto_with_gravity_meets_rtol_against_tight_dop853(rtol):
     body = sc.body.model_copy(update={"principal_moments": [2e-3, 2.6e-3, 1.1e-3]})
     sc = sc.model_copy(update={"body": body, "time": sc.time.model_copy(update={"end": 1.0}),
                                "solver": sc.solver.model_copy(update={"rtol": rtol, "atol": rtol * 1e-2})})
-    _warm(sc, "taylor", "splitting", "rk4")
     auto = rotlab.simulate(sc)
     ref = rotlab.simulate(sc.model_copy(update={"solver": sc.solver.model_copy(update={"method": "dop853", "rtol": 1e-14, "atol": 1e-16})}))
     assert auto.stats.method != "exact"
@@ -116,13 +102,14 @@ def test_auto_with_gravity_meets_rtol_against_tight_dop853(rtol):
 
 def test_auto_choice_is_cached_by_its_inputs_and_reported():
     sc = rotlab.load(CONFIGS / "general.toml")
-    _warm(sc, "taylor", "rk4")
     scene = build_scene(sc)
     t = sc.time.sample_times()
-    first = choose_method(scene, "auto", Settings(rtol=1e-10), t)
-    again = choose_method(build_scene(sc), "auto", Settings(rtol=1e-10), t)
+    choices = Choices()
+    first = choose_method(scene, "auto", Settings(rtol=1e-10), t, choices)
+    again = choose_method(build_scene(sc), "auto", Settings(rtol=1e-10), t, choices)
     assert first[1] is again[1]  # the same reason object: a new scene of the same numbers hits the cache
-    other = choose_method(scene, "auto", Settings(rtol=1e-6), t)
+    assert choose_method(scene, "auto", Settings(rtol=1e-10), t)[1] == first[1]  # not kept: the same choice made again
+    other = choose_method(scene, "auto", Settings(rtol=1e-6), t, choices)
     assert other[1] is not first[1] and other[2].rtol == pytest.approx(1e-7)
     assert first[0].name == "taylor" and "non-conservative" in first[1]
     assert first[2].rtol == pytest.approx(1e-11)  # taylor's local tolerance is rtol / 10
@@ -150,106 +137,64 @@ def test_cost_model_prefers_few_samples_for_exact_and_many_steps_for_dmv():
     assert cost.separatrix((1.0, 2.0, 3.0), (1.0, 0.0, 1.0), 10.0, 1.0)[0] < 1e-13  # far from the separatrix: no floor
 
 
-def test_a_single_cli_run_of_a_lagrange_top_uses_exact(tmp_path):
-    """In a fresh process no numba kernel has run: taylor would pay numba's first use (~0.3–1 s),
-    exact takes milliseconds and needs no kernel, so a one-off `rotlab run` picks exact."""
-    done = subprocess.run([sys.executable, "-m", "rotlab", "run", str(CONFIGS / "lagrange.toml"), "-o", str(tmp_path / "l.rrd")],
-                          capture_output=True, text=True, check=True)
-    assert "method   exact (auto: exact" in done.stdout and "loading their numba kernel" in done.stdout
+PURITY_PROBE = """
+import json, sys
+import rotlab
+from rotlab.api import CHOICES
+from rotlab.config import load_scenario, parse_scenario
+from rotlab.methods.base import Settings
+from rotlab.methods.choose import auto_choice
+from rotlab.scene.scene import build_scene
+
+def scenario(given):
+    return load_scenario(given) if isinstance(given, str) else parse_scenario(given, source="problem")
+
+def choices():
+    out = []
+    for given, rtol in json.loads(sys.argv[1]):
+        sc = scenario(given)
+        method, why, settings = auto_choice(build_scene(sc), Settings(rtol=rtol, atol=rtol * 1e-2), sc.time.sample_times())
+        out.append([method.name, why, settings.rtol, settings.atol, settings.order, settings.step])
+    return out
+
+history = sys.argv[2]
+if history == "after runs":  # every stepping kernel loaded, other scenes chosen and run, the cache filled
+    for given, _ in json.loads(sys.argv[1]):
+        path = scenario(given)
+        for method in ("taylor", "dmv", "rk4", "splitting", "exact", "dop853"):
+            try:
+                rotlab.simulate(path, method=method, duration=0.05)
+            except rotlab.InputError:
+                pass
+        for _ in range(300):
+            rotlab.simulate(path, duration=0.05)
+if history == "in a worker":
+    from concurrent.futures import ProcessPoolExecutor
+    with ProcessPoolExecutor(1) as pool:
+        print(json.dumps(pool.submit(choices).result()))
+else:
+    print(json.dumps(choices()))
+"""
 
 
-def test_a_loop_of_runs_moves_to_a_stepper_once_loading_it_pays(tmp_path):
-    """In a fresh process, repeated runs of one free body (euler.toml, 2001 samples: exact ~2 ms
-    a run, taylor ~0.15 ms) start with exact and switch to a stepping method once the kernel's
-    first use (0.3–1 s), shared among the runs made so far (the choice is revisited at 2^k runs:
-    by run 1024 the share is ≤ 1 ms), costs less than exact's extra time."""
-    code = (
-        "import rotlab\n"
-        f"sc = rotlab.load({str(CONFIGS / 'euler.toml')!r})\n"
-        "methods = [rotlab.simulate(sc).stats.method for _ in range(1100)]\n"
-        "print(methods[0], methods[-1])\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
-    first, last = done.stdout.split()
-    assert first == "exact" and last != "exact"
+def test_auto_is_a_pure_function_of_the_scenario_and_settings(tmp_path):
+    """The same scenario and settings get the same method, settings and reason in a fresh process,
+    after every kernel was loaded and hundreds of runs were made, and in a worker process: nothing
+    of the process's history (kernels loaded, runs made) enters the choice.  The shipped configs
+    and the bench's free body and heavy top, at three tolerances."""
+    import json
 
+    from rotlab.bench.problems import get_problems
 
-def test_a_process_told_to_expect_many_runs_steps_from_the_first(tmp_path):
-    """A sweep worker knows how many cases it will run (``choose.expect_runs``): the kernel's
-    first use is shared among them from the first case, so 2,000 runs of euler.toml start with
-    the stepper that the loop above reaches only by its 1024th run."""
-    code = (
-        "import rotlab\n"
-        "from rotlab.methods.choose import expect_runs\n"
-        f"sc = rotlab.load({str(CONFIGS / 'euler.toml')!r})\n"
-        "expect_runs(2000)\n"
-        "print(rotlab.simulate(sc).stats.method)\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
-    assert done.stdout.split() != ["exact"]
-
-
-def test_a_kernel_loaded_for_other_load_groups_is_not_counted_as_ready(tmp_path):
-    """numba specialises a kernel on the scene's load groups: after general.toml's taylor
-    (gravity, terms, tables, damping) the Lagrange top's taylor (gravity only) still has to be
-    compiled or loaded.  auto counted the kernel as ready and picked taylor for the top
-    (1.8 ms expected, 53 ms taken, seconds with an empty numba cache); it picks exact again."""
-    code = (
-        "import rotlab\n"
-        "from rotlab.methods import choose\n"
-        "from rotlab.scene.scene import build_scene\n"
-        f"rotlab.simulate({str(CONFIGS / 'general.toml')!r}, method='taylor', duration=0.1)\n"
-        f"top, heavy = (build_scene(rotlab.load(p)) for p in ({str(CONFIGS / 'lagrange.toml')!r}, {str(CONFIGS / 'general.toml')!r}))\n"
-        "print(choose._kernel_ready('taylor', top), choose._kernel_ready('taylor', heavy))\n"
-        f"print(rotlab.simulate({str(CONFIGS / 'lagrange.toml')!r}).stats.method)\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
-    assert done.stdout.split() == ["False", "True", "exact"]
-
-
-def test_sweep_workers_are_told_their_share_of_the_cases(monkeypatch):
-    from rotlab.sweep import runner
-
-    p = runner.plan(CONFIGS / "sweep_flip.toml")
-    p = dataclasses.replace(p, base=p.base.model_copy(update={"solver": p.base.solver.model_copy(update={"method": "auto"})}))
+    scenes = [problem.data for problem in get_problems(["gni", "heavy-top"])] + [str(p) for p in sorted(CONFIGS.glob("*.toml"))]
+    cases = json.dumps([[path, rtol] for path in scenes for rtol in (1e-6, 1e-10, 1e-13)])
     seen = {}
-
-    def record(fn, tasks, jobs, **kw):
-        seen["tasks"], seen["jobs"] = tasks, jobs
-        return runner.TaskRun([])
-
-    monkeypatch.setattr(runner, "run_tasks", record)
-    runner.run_cases(p, jobs=2)
-    assert {task[4] for task in seen["tasks"]} == {-(-len(p.cases) // 2)}  # 12 cases on 2 workers: 6 each
-    runner.run_cases(p, jobs=2, timeout=0.3)
-    # not with a per-case --timeout: every new worker's first case would load the kernel, run out of
-    # time, and its replacement likewise (found by review: 184 of 184 cases timed out)
-    assert {task[4] for task in seen["tasks"]} == {0}
-
-
-def test_taylor_loaded_for_gravity_alone_is_not_ready_for_gravity_with_a_space_torque(tmp_path):
-    """taylor's kernel is specialised on the model's type and on whether a lone force goes through
-    γ = Rᵀ F: gravity with a body-frame torque and gravity with a space-frame torque share their
-    load groups but not their specialisation, so after the first the second is not counted as
-    loaded (auto would otherwise expect no load or compile for it)."""
-    base = {"body": {"principal_moments": [1.0, 1.5, 2.0], "mass": 1.0, "center_of_mass": [0.0, 0.0, 0.3]},
-            "initial": {"omega": [0.1, 0.2, 5.0]}, "time": {"end": 0.5, "samples": 11}}
-    body_torque = {**base, "loads": [{"type": "gravity"}, {"type": "torque", "frame": "body", "value": [0.0, 0.0, 0.01]}]}
-    space_torque = {**base, "loads": [{"type": "gravity"}, {"type": "torque", "frame": "space", "value": [0.0, 0.0, 0.01]}]}
-    code = (
-        "import rotlab\n"
-        "from rotlab.config import parse_scenario\n"
-        "from rotlab.methods import choose\n"
-        "from rotlab.scene.scene import build_scene\n"
-        f"a, b = (parse_scenario(d) for d in ({body_torque!r}, {space_torque!r}))\n"
-        "before = choose._kernel_ready('taylor', build_scene(a))\n"
-        "rotlab.simulate(a, method='taylor')\n"
-        "print(before, choose._kernel_ready('taylor', build_scene(a)), choose._kernel_ready('taylor', build_scene(b)))\n"
-        "rotlab.simulate(b, method='taylor')\n"
-        "print(choose._kernel_ready('taylor', build_scene(b)))\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
-    assert done.stdout.split() == ["False", "True", "False", "True"]
+    for history in ("fresh", "after runs", "in a worker"):
+        done = subprocess.run([sys.executable, "-c", PURITY_PROBE, cases, history], capture_output=True, text=True, cwd=tmp_path, timeout=900)
+        assert done.returncode == 0, done.stderr[-2000:]
+        seen[history] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert seen["fresh"] == seen["after runs"] == seen["in a worker"]
+    assert {row[0] for row in seen["fresh"]} >= {"exact", "taylor", "dmv"}  # the choices are not all alike
 
 
 @pytest.mark.parametrize("loads, fixed_step", [

@@ -10,7 +10,7 @@ import tomllib
 import pytest
 
 from rotlab.config.schema import SCHEMA_FILE, schema_text
-from rotlab.methods.names import METHOD_NAMES
+from rotlab.method_names import METHOD_NAMES
 from rotlab.recording import layout
 from rotlab.recording.reader import read_series
 from tests.conftest import CONFIGS, VALID_BODY, VALID_TIME

@@ -19,7 +19,7 @@ import pytest
 import rotlab
 from rotlab.config.loader import parse_scenario
 from rotlab.errors import InputError, RunFailure
-from rotlab.methods.registry import METHOD_MODULES, get_method
+from rotlab.methods.registry import METHODS, get_method
 from tests.conftest import VALID_BODY
 
 FREE = VALID_BODY + "[initial]\nomega = [0.1, 0.2, 0.3]\n[time]\nend = 2.0\nsample_rate = 100\n"
@@ -47,7 +47,7 @@ def _methods_accepting(scenario) -> list[str]:
     from rotlab.scene.scene import build_scene
 
     scene = build_scene(scenario)
-    return [name for name in METHOD_MODULES if get_method(name).unsupported(scene) is None]
+    return [name for name in METHODS if get_method(name).unsupported(scene) is None]
 
 
 @pytest.mark.parametrize("formula, singular_at", SINGULAR_FORMULAS)

@@ -309,7 +309,7 @@ def test_taylor_runs_two_switches_that_sit_at_the_start_together(target):
 def test_taylor_coefficients_of_an_expression_scene_are_the_rhs():
     """X[1] of the taylor kernel equals f(t, y) to 1e-14 with every input variable in use."""
     from rotlab.core import taylor
-    from rotlab.methods.taylor import kernel_constants
+    from rotlab.methods.catalog.taylor import kernel_constants
 
     loads = [{"type": "expression", "frame": "space", "up": [0.3, 0.1, 1.0], "constants": {"c": 0.3},
               "torque": ["c*omega[1]*gamma[2] + q[0]*L[2]", "sin(t)*gamma[0] - L[1]", "atan2(q[2], q[3]) + t**2"]},

@@ -90,7 +90,7 @@ def test_scenes_with_equal_loads_share_their_kernel_constants():
     depends only on the loads and the principal moments (the model, taylor's force map) is built
     once and shared by content, and a change of any load or moment gets its own."""
     import rotlab
-    from rotlab.methods import taylor
+    from rotlab.methods.catalog import taylor
     from rotlab.scene.scene import build_scene
     from tests.conftest import CONFIGS
 
@@ -99,7 +99,7 @@ def test_scenes_with_equal_loads_share_their_kernel_constants():
     pushed = rotlab.load(CONFIGS / "general.toml", overrides={"loads[1].value[2]": 0.03})
     a, b, c = (build_scene(s) for s in (base, spun, pushed))
     assert a.model is b.model and a.model is not c.model
-    constants = [s.shared("taylor", lambda s=s: taylor.kernel_constants(s)) for s in (a, b, c)]
+    constants = [s.rigid.kernel_constants("taylor", None, lambda s=s: taylor.kernel_constants(s)) for s in (a, b, c)]
     assert constants[0] is constants[1] and constants[0] is not constants[2]
     np.testing.assert_array_equal(c.model.terms, build_scene(pushed).loads.terms)  # its own loads, not a's
     assert c.model.terms[0, 5] == 0.03 and a.model.terms[0, 5] == 0.02
@@ -124,14 +124,14 @@ def test_scenes_of_equal_bodies_and_loads_share_their_rigid_part_and_keep_their_
     turned = rotlab.load(CONFIGS / "general.toml", overrides={"initial.omega": [1.0, 2.0, 3.0], "initial.axis_angle": [0.0, 0.4, 0.2]})
     heavier = rotlab.load(CONFIGS / "general.toml", overrides={"body.mass": 1.3})
     a, b, c = (scenes.build_scene(s) for s in (base, turned, heavier))
-    assert a.loads is b.loads and a.axes is b.axes and a.loads is not c.loads
+    assert a.rigid is b.rigid and a.loads is b.loads and a.axes is b.axes and a.loads is not c.loads
     assert c.loads.forces[0, 5] == pytest.approx(-1.3 * 9.81) and a.loads.forces[0, 5] == pytest.approx(-1.2 * 9.81)
     rigid = scenes._build_rigid(turned, None)  # unshared: the same numbers
-    np.testing.assert_array_equal(b.omega0, rigid.fields["axes"].T @ np.array([1.0, 2.0, 3.0]))
-    expected_q0 = quat.multiply_array(scenes.initial_quaternion(turned.initial), rigid.fields["axes_quaternion"])
+    np.testing.assert_array_equal(b.omega0, rigid.axes.T @ np.array([1.0, 2.0, 3.0]))
+    expected_q0 = quat.multiply_array(scenes.initial_quaternion(turned.initial), rigid.axes_quaternion)
     np.testing.assert_array_equal(b.q0, expected_q0)
     assert not np.array_equal(a.q0, b.q0)
-    assert b.content_key == (rigid.fields["moments"].tobytes(), scenes.loads_key(rigid.fields["loads"]))
+    assert b.content_key == (rigid.moments.tobytes(), scenes.loads_key(rigid.loads))
     assert not b.is_principal and scenes.build_scene(rotlab.load(CONFIGS / "euler.toml")).is_principal
 
 

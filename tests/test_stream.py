@@ -545,7 +545,7 @@ def test_a_compile_cut_short_does_not_leave_the_clock_running(tmp_path, monkeypa
     the method returns: writing keeps its time."""
     from numba.core import event
 
-    from rotlab.methods.exact import Exact
+    from rotlab.methods.catalog.exact import Exact
     from rotlab.recording.writer import RecordingWriter
 
     solve, write = Exact.solve, RecordingWriter.write

@@ -153,8 +153,8 @@ def test_the_choice_is_made_for_the_fastest_spin_and_the_closest_approach_to_the
     assert worst.amplification > 10.0  # the (1e-4, ~1, 1e-4) spins
     settings = Settings(rtol=RTOL, atol=RTOL * 1e-2)
     spins = np.array([[0.05, 1.0, 0.2], [3.0, 1.0, 0.2]])
-    both = ensemble_choice(scene, settings, t, worst_work(scene, t, spins)[0], 100)
-    fast = ensemble_choice(scene, settings, t, worst_work(scene, t, spins[1:])[0], 100)
+    both = ensemble_choice(scene, settings, t, worst_work(scene, t, spins)[0])
+    fast = ensemble_choice(scene, settings, t, worst_work(scene, t, spins[1:])[0])
     assert (both[0].name, both[2]) == (fast[0].name, fast[2])
     ordered = plan(write("o.toml", SWEEP.replace('rtol = ', 'order = 12\nrtol = ').replace('[0.0, 1e-4, 0.05, 0.3, 1.0, 3.0]', '[0.0]')
                          .replace('[0.0, 1e-4, 0.2]', '[0.0]')))

@@ -14,7 +14,7 @@ from rotlab.core.dynamics import rhs
 from rotlab.errors import InputError
 from rotlab.methods.base import Settings
 from rotlab.methods.registry import get_method
-from rotlab.methods.taylor import kernel_constants
+from rotlab.methods.catalog.taylor import kernel_constants
 from rotlab.scene.scene import build_scene
 from tests.conftest import CONFIGS
 from tests.helpers import axisymmetric_free_body, same_rotation_error, scenario
@@ -50,7 +50,7 @@ def _config(name: str, **solver):
 
 def _series_at(scene, t0: float, y: np.ndarray, order: int) -> np.ndarray:
     """The Taylor coefficients X[0..order] of the state at (t0, y), as the kernel computes them."""
-    return taylor.coefficients(t0, y, order, scene.model, *scene.cached("taylor", lambda: kernel_constants(scene)))
+    return taylor.coefficients(t0, y, order, scene.model, *kernel_constants(scene))
 
 
 def _f(scene, t0: float, y: np.ndarray) -> np.ndarray:

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from rotlab.scene import inertia
+from rotlab import inertia
 from tests.conftest import CONFIGS, VALID_BODY
 
 FREE = VALID_BODY + "[initial]\nomega = [0.1, 0.2, 0.3]\n[time]\nend = 1.0\nsample_rate = 20\n"

@@ -172,11 +172,11 @@ def _substeps(scene, t: np.ndarray, order: int, decades: float, max_points: int 
 
 def rotlab_series(scene, t: np.ndarray, options: Options) -> list[Series]:
     from rotlab.methods.base import Settings
-    from rotlab.methods.registry import METHOD_MODULES, get_method
+    from rotlab.methods.registry import METHODS, get_method
 
     interval = float(t[1] - t[0])
     out: list[Series] = []
-    for name in METHOD_MODULES:
+    for name in METHODS:
         method = get_method(name)
         if method.unsupported(scene):
             continue
@@ -523,7 +523,7 @@ def kernel_throughput(options: Options, steps: int = 1_000_000) -> list[dict[str
     negligible here), and the peers on the same body (10³ steps)."""
     from rotlab.config import parse_scenario
     from rotlab.methods.base import Settings
-    from rotlab.methods.registry import METHOD_MODULES, get_method
+    from rotlab.methods.registry import METHODS, get_method
     from rotlab.scene.scene import build_scene
 
     if options.quick:
@@ -531,7 +531,7 @@ def kernel_throughput(options: Options, steps: int = 1_000_000) -> list[dict[str
     scene = build_scene(parse_scenario({"body": {"principal_moments": [1.0, 1.6, 2.2]}, "initial": {"omega": [1.0, 0.5, 1.5]}, "time": {"end": 1.0}}))
     t = np.linspace(0.0, steps * 1e-3, 1001)
     rows: list[dict[str, Any]] = []
-    for name in METHOD_MODULES:
+    for name in METHODS:
         method = get_method(name)
         if name == "exact" or method.unsupported(scene):
             continue

@@ -20,11 +20,10 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from rotlab import invariants
+from rotlab import inertia, invariants
 from rotlab.config import expressions
 from rotlab.errors import InputError
-from rotlab.methods.names import METHOD_NAMES
-from rotlab.scene import inertia
+from rotlab.method_names import METHOD_NAMES
 
 MAX_SAMPLES = 1_000_000_000  # a sanity bound; long runs are streamed, and [output] max_megabytes asks first
 QUATERNION_NORM_TOLERANCE = 1e-3
@@ -191,7 +190,7 @@ class Body(_Model):
         return self
 
     def _check_centre_of_mass(self) -> None:
-        """The inertia about the centre of mass must be realisable (``rotlab.scene.inertia``)."""
+        """The inertia about the centre of mass must be realisable (``rotlab.inertia``)."""
         tensor = self.inertia_tensor or [[self.principal_moments[i] if i == j else 0.0 for j in range(3)] for i in range(3)]
         why = inertia.centre_of_mass_violation(tensor, self.mass, self.center_of_mass)
         if why:

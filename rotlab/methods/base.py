@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Callable, Protocol
 import numpy as np
 
 if TYPE_CHECKING:
+    from rotlab.methods.cost import Estimate, Work
     from rotlab.scene.scene import Scene
 
 ProgressCallback = Callable[[int, int], None]  # (samples done, samples total)
@@ -65,6 +66,9 @@ class Method(Protocol):
     ``orders``: the orders ``solver.order`` may choose (empty: the one ``order_of_accuracy``,
     None for NO_STEPS).  ``evaluations_per_step(scene, order)``: right-hand-side (or force)
     evaluations per accepted step, the method's cost unit (0 when it evaluates none).
+    ``auto_estimates`` / ``auto_settings``: what ``auto`` (``rotlab.methods.choose``) may run it
+    with and at what expected cost; ``given_step_preference``: its rank among the FIXED methods
+    when ``auto`` is given ``solver.step`` (None: never).
     """
 
     name: str
@@ -73,6 +77,7 @@ class Method(Protocol):
     adaptive: bool
     orders: tuple[int, ...]
     order_of_accuracy: int | None
+    given_step_preference: int | None
 
     def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
         """Right-hand-side evaluations per step for ``scene`` at ``order``."""
@@ -82,6 +87,13 @@ class Method(Protocol):
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         """The state at the sample times ``t`` (``t[0]`` is the initial time)."""
+
+    def auto_estimates(self, scene: Scene, settings: Settings, work: Work) -> list[Estimate]:
+        """The runs ``auto`` may make with this method on ``scene`` (each an order and setting),
+        with their expected cost and error (``rotlab.methods.cost``); empty: never by cost."""
+
+    def auto_settings(self, estimate: Estimate, settings: Settings) -> Settings:
+        """The settings it runs ``estimate`` with, from the user's ``settings``."""
 
 
 class FixedStepping(Method, Protocol):

@@ -16,10 +16,8 @@ Steps, over a span T of a scene with rate scale Ω (``Scene.rate_scale``) and n 
   One more step per load breakpoint;
 * ``exact``: no steps, a set-up and a cost per sample, and no numba kernel.
 
-A stepping method whose kernel has not run yet in this process also pays its first use
-(``first_use_seconds``): for one ``rotlab run`` of configs/lagrange.toml that is ~0.3–1 s against
-exact's few ms, while in a loop, a sweep or a benchmark it is paid once and the steady-state
-costs decide.
+The costs are steady-state costs: loading a kernel from numba's cache, paid once per process,
+is not part of them, so that a choice does not depend on what the process ran before.
 
 Near the separatrix of a free asymmetric body every stepping method loses accuracy: an error δ
 in the modulus m moves the flip period 4K(m)/λ by δK ≈ δ / (2 m₁) (m₁ = 1 − m), so the flips
@@ -51,11 +49,6 @@ CONSTANTS = {  # python benchmarks/fit_cost_model.py, 2026-11-23, 1-min load 1.5
     # taylor refitted 2026-11-25 (``taylor_costs`` alone, 1-min load 0.7) after a lone force went through γ = Rᵀ F
     "taylor": {"free": {"a": 1.71e-07, "b": 1.55e-09}, "forces": {"a": 2.12e-07, "b": 2.21e-09}, "loads": {"a": 3.4e-07, "b": 5.22e-09},
                "per_sample": 3.37e-08, "per_call": 8.78e-06},
-    # one-time, in a process: numba's first use (``init``: its target context imports its numpy and BLAS
-    # support) and loading a kernel from the on-disk cache (``load``); refitted 2026-11-25 on an idle
-    # machine (``first_use_costs`` alone, load 0.3–0.6): the previous 0.977 s and 28–34 ms loads, measured
-    # at load 4.4, made auto keep ``exact`` ~3.6× too long in loops and sweeps
-    "first_use": {"init": 0.267, "load": {"taylor": 0.0112, "dmv": 0.0081, "rk4": 0.0045}},
     "error_constants": {"dmv-8": 8.4e-06, "dmv-10": 2.53e-07, "dmv-12": 7.36e-09, "splitting-2": 0.0152, "splitting-4": 0.000738,
                         "splitting-6": 5.58e-05, "splitting-8": 3.76e-08, "rk4": 0.00252},
     "taylor_radians_per_step": 0.614,  # median over the bench problems at order 13, rtol 1e-10 (range 0.381–1.12)
@@ -118,15 +111,6 @@ class Work:
     def __post_init__(self) -> None:
         object.__setattr__(self, "radians", self.rate * self.span)
         object.__setattr__(self, "interval", self.span / max(self.samples - 1, 1))
-
-
-def first_use_seconds(name: str, numba_ready: bool) -> float:
-    """The one-time cost of a stepping method's first call in this process: numba's own first use
-    (unless some kernel already ran) and loading the kernel from the on-disk cache (a kernel not
-    yet compiled costs seconds more; the model assumes a filled cache)."""
-    c = CONSTANTS["first_use"]
-    loads = c["load"]
-    return (0.0 if numba_ready else c["init"]) + loads.get(name, max(loads.values()))
 
 
 def exact_estimate(kind: str, work: Work) -> Estimate:

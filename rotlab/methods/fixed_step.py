@@ -15,12 +15,13 @@ error ∝ h^p · (elapsed time) the step for the run is
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
 from rotlab.errors import InputError
+from rotlab.methods import cost
 from rotlab.methods.base import FIXED, ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import CHUNK_STEPS, initial_state, nonfinite_message, run_chunks
 from rotlab.scene.scene import Scene
@@ -41,9 +42,25 @@ class FixedStepMethod:
     orders: tuple[int, ...] = ()  # orders offered through ``solver.order`` (empty: just one)
     default_order: int | None = None
     step_limit: float = 2.0  # largest h·ω (rad per step) that is stable / meaningful
-    probe_cache: dict = field(default_factory=dict, compare=False, repr=False)
+    auto_orders: tuple[int | None, ...] = ()  # the orders ``auto`` weighs (None: the one order); empty: never by cost
+    auto_applies: Callable[[Scene], bool] = lambda scene: True  # where ``auto`` weighs it (besides ``requires``)
+    auto_probe: bool = True  # auto lets it derive its step from its own probe (else: the cost model's a priori step)
+    given_step_preference: int | None = None  # rank when auto is given solver.step (``rotlab.methods.base.Method``)
     stepping = FIXED
     adaptive = False
+
+    def auto_estimates(self, scene: Scene, settings: Settings, work: cost.Work) -> list[cost.Estimate]:
+        """Each order of ``auto_orders`` at the step that meets rtol (``cost.fixed_step_estimate``;
+        the probe aims at rtol itself, amplified near a separatrix)."""
+        if not self.auto_applies(scene):
+            return []
+        target = settings.rtol / work.amplification
+        return [cost.fixed_step_estimate(self.name, k, self.order_of_accuracy if k is None else k, target, work, step_limit=self.step_limit,
+                                         probe=self.auto_probe) for k in self.auto_orders if settings.order in (None, k)]
+
+    def auto_settings(self, estimate: cost.Estimate, settings: Settings) -> Settings:
+        """The estimate's order, at its a priori step or (``auto_probe``) the method's own probe's."""
+        return replace(settings, step=None if self.auto_probe else estimate.step, order=estimate.order)
 
     def unsupported(self, scene: Scene) -> str | None:
         return self.requires(scene)
@@ -106,7 +123,7 @@ class FixedStepMethod:
 
     def kernel_args(self, scene: Scene, order: int) -> tuple:
         """The method's extra kernel arguments (after ``scene.model``), once per scene."""
-        return scene.shared(f"{self.name}-{order}", lambda: tuple(self.extra_args(scene, order)))
+        return scene.rigid.kernel_constants(self.name, order, lambda: tuple(self.extra_args(scene, order)))
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         order = self.order(settings)

@@ -1,22 +1,28 @@
-"""Method names → method objects, imported lazily so that validating a config compiles nothing.
-The names live in ``rotlab.methods.names`` (a module that imports nothing)."""
+"""Method names → method objects, each imported on first use from ``rotlab.methods.catalog``
+(the names: ``rotlab.method_names``, which imports nothing)."""
 
 from __future__ import annotations
 
 import importlib
+from functools import cache
 
+from rotlab.method_names import CATALOG_PACKAGE, METHODS
 from rotlab.methods.base import Method
-from rotlab.methods.names import METHOD_MODULES, METHOD_NAMES
 
-__all__ = ["METHOD_MODULES", "METHOD_NAMES", "get_method"]
-
-
-_LOADED: dict[str, Method] = {}
+__all__ = ["METHODS", "all_methods", "get_method"]
 
 
+@cache
 def get_method(name: str) -> Method:
     """The method object registered under ``name`` (not 'auto': see ``rotlab.methods.choose``)."""
-    method = _LOADED.get(name)
-    if method is None:  # (import_module costs ~3 µs even for a loaded module; auto asks ~8 times a choice)
-        method = _LOADED[name] = importlib.import_module(METHOD_MODULES[name]).METHOD
+    if name not in METHODS:
+        raise KeyError(f"unknown method {name!r}: choose one of {', '.join(METHODS)}")
+    method = importlib.import_module(f"{CATALOG_PACKAGE}.{name}").METHOD
+    if method.name != name:
+        raise TypeError(f"{CATALOG_PACKAGE}.{name} declares METHOD.name = {method.name!r}: a method's module is named as the method")
     return method
+
+
+def all_methods() -> tuple[Method, ...]:
+    """Every method, in listing order."""
+    return tuple(get_method(name) for name in METHODS)

@@ -7,11 +7,11 @@ Internally Λ_P = Λ_U ∘ Λ_axes and ω_P = axesᵀ ω_U; every reported quant
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
 import math
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, TypeVar
 
 import numpy as np
 
@@ -19,9 +19,10 @@ from rotlab import invariants as invariant_table
 from rotlab.config import models as cfg
 from rotlab.core import quaternion as quat
 from rotlab.core.state import LAMBDA, OMEGA, STATE_SIZE
-from rotlab.core.torques import EX_RATE
 from rotlab.core.faults import Fault
-from rotlab.scene import fault_words, inertia
+from rotlab.core.torques import F_FORCE, F_POINT
+from rotlab import inertia
+from rotlab.scene import fault_words
 from rotlab.scene.loads import (
     LoadArrays,
     Model,
@@ -29,30 +30,31 @@ from rotlab.scene.loads import (
     build_model,
     compile_loads,
     has_nonconservative,
+    has_switches,
+    load_rates,
     loads_key,
     shortest_window,
     torque_scale,
-    user_torque,
 )
-
-T = TypeVar("T")
-
-SHARED_SIZE = 256  # scenes' shared constants kept (``Scene.shared``), oldest dropped first
-_SHARED: dict[tuple, Any] = {}
+from rotlab.scene.user_torque import user_torque
 
 SYMMETRY_RTOL = 1e-12  # two moments this close are treated as equal (axisymmetric body)
 
 TORQUE_FREE, LAGRANGE, GENERAL = "torque_free", "lagrange", "general"
 
 
-@dataclass(frozen=True)
-class Scene:
-    scenario: cfg.Scenario
+@dataclass(frozen=True, eq=False)
+class Rigid:
+    """What a scene derives from its body and loads alone (the initial state aside), built once
+    and shared by every scene with the same body and loads (``build_scene``): a sweep over
+    initial states or a loop over ``rotlab.simulate`` compiles the loads and builds the kernels'
+    model once.  Principal frame (module docstring)."""
+
+    body: cfg.Body
+    specs: tuple[cfg.Load, ...]  # the loads as the scenario gives them
     moments: np.ndarray  # principal moments (A, B, C), kg·m²
     axes: np.ndarray  # (3, 3) proper rotation, columns = principal axes in the user's body frame
     axes_quaternion: np.ndarray  # Λ of ``axes``
-    omega0: np.ndarray  # ω at t0, principal body frame
-    q0: np.ndarray  # Λ at t0, principal body → space
     loads: LoadArrays
     kind: str  # TORQUE_FREE | LAGRANGE | GENERAL
     kind_reason: str
@@ -60,29 +62,90 @@ class Scene:
     has_work: bool  # some non-conservative load
     field_direction: np.ndarray | None  # unit "up" (−F̂) when all forces are parallel: L·up is invariant
     symmetry_axis: np.ndarray | None  # Lagrange top: unit symmetry axis (principal frame), L·e is invariant
-    _memo: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
+    _kernel_constants: dict[tuple[str, int | None], tuple] = field(default_factory=dict, init=False, repr=False)
 
-    def cached(self, key: str, build: Callable[[], T]) -> T:
-        """What a method derives from the scene alone (kernel constants), built on first use and
-        kept with the scene: repeated solves of one scene (sweeps, benchmarks) pay for it once."""
-        if key not in self._memo:
-            self._memo[key] = build()
-        return self._memo[key]
+    @cached_property
+    def model(self) -> Model:
+        """The one value the kernels receive: Euler coefficients, breakpoints and the loads,
+        absent groups as None (``rotlab.scene.loads.Model``)."""
+        return build_model(self.loads, self.moments)
 
-    def shared(self, key: str, build: Callable[[], T]) -> T:
-        """Like ``cached``, for what depends only on the loads and the principal moments (the
-        kernels' model and load constants): shared among scenes with equal loads and moments, so
-        a sweep over initial states or a loop over ``rotlab.simulate``, which build a new scene
-        each call, pays for it once.  Kept per scene when a Python torque is among the loads."""
-        content = self.content_key
-        if content is None:
-            return self.cached(key, build)
-        found = _SHARED.get((key, content))
-        if found is None:
-            if len(_SHARED) >= SHARED_SIZE:
-                _SHARED.pop(next(iter(_SHARED)))
-            found = _SHARED[(key, content)] = self.cached(key, build)
-        return found
+    @cached_property
+    def content_key(self) -> tuple | None:
+        """The loads and the principal moments as bytes (None with a Python torque)."""
+        loads_bytes = loads_key(self.loads)
+        return None if loads_bytes is None else (self.moments.tobytes(), loads_bytes)
+
+    @cached_property
+    def is_principal(self) -> bool:
+        """The user's body axes are the principal axes (no conversion of the series)."""
+        return bool(np.array_equal(self.axes, np.eye(3)))
+
+    @cached_property
+    def load_rate(self) -> float:
+        """The loads' part of ``Scene.rate_scale``: √(|M|/I_min), their frequencies, damping / I_min."""
+        smallest = float(np.min(self.moments))
+        rates = [np.sqrt(torque_scale(self.loads) / smallest), self.loads.damping / smallest]
+        return float(max(rates + load_rates(self.loads).tolist()))
+
+    @cached_property
+    def shortest_window(self) -> float:
+        """The shortest time a windowed load or a table segment acts, s (inf when none)."""
+        return shortest_window(self.loads)
+
+    @cached_property
+    def has_switches(self) -> bool:
+        """A load may jump or kink where no breakpoint marks it: abs, sign, min or max in a formula
+        load (``pd_control`` included), or a Python torque, whose smoothness is unknown.  A fixed
+        step crosses such a switch at low order, whatever its probe measured between switches."""
+        return has_switches(self.loads) or self.loads.user is not None
+
+    @cached_property
+    def each_load(self) -> tuple[tuple[LoadArrays, Model], ...]:
+        """Each load of ``specs`` alone: its arrays and a model of ``model``'s numba type (the
+        groups the scene has present, empty where this load has no rows; no Python torque), so
+        that one compiled specialisation evaluates any of them (the recording's load views)."""
+        like = self.model if self.model.user is None else self.model._replace(user=None)
+        alone = [compile_loads(self.body, (load,), self.axes, self.moments) for load in self.specs]
+        return tuple((arrays, build_model(arrays, self.moments, like=like)) for arrays in alone)
+
+    def kernel_constants(self, method: str, order: int | None, build: Callable[[], tuple]) -> tuple:
+        """The constants ``method``'s kernel takes at ``order`` besides the model (a force map, a
+        table of modified moments), built on first use."""
+        key = (method, order)
+        if key not in self._kernel_constants:
+            self._kernel_constants[key] = build()
+        return self._kernel_constants[key]
+
+
+def _rigid_field(name: str) -> property:
+    return property(lambda scene: getattr(scene.rigid, name), doc=f"``Rigid.{name}``")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A scenario to run: its shared ``rigid`` part (body and loads) and its initial state."""
+
+    scenario: cfg.Scenario
+    rigid: Rigid
+    omega0: np.ndarray  # ω at t0, principal body frame
+    q0: np.ndarray  # Λ at t0, principal body → space
+
+    moments = _rigid_field("moments")
+    axes = _rigid_field("axes")
+    axes_quaternion = _rigid_field("axes_quaternion")
+    loads = _rigid_field("loads")
+    kind = _rigid_field("kind")
+    kind_reason = _rigid_field("kind_reason")
+    has_potential = _rigid_field("has_potential")
+    has_work = _rigid_field("has_work")
+    field_direction = _rigid_field("field_direction")
+    symmetry_axis = _rigid_field("symmetry_axis")
+    model = _rigid_field("model")
+    content_key = _rigid_field("content_key")
+    is_principal = _rigid_field("is_principal")
+    shortest_window = _rigid_field("shortest_window")
+    has_switches = _rigid_field("has_switches")
 
     def explain_fault(self, fault: Fault) -> str:
         """A run's failure message for the fault one of its compiled loads recorded."""
@@ -98,49 +161,18 @@ class Scene:
         return y
 
     @cached_property
-    def content_key(self) -> tuple | None:
-        """The loads and the principal moments as bytes (None with a Python torque)."""
-        return _content_key(self.moments, self.loads)
-
-    @cached_property
-    def is_principal(self) -> bool:
-        """The user's body axes are the principal axes (no conversion of the series)."""
-        return _is_identity(self.axes)
-
-    @cached_property
     def rate_scale(self) -> float:
         """A characteristic angular rate (rad/s) of the scene: max(|ω0|, √(|M|/I_min), load frequencies)."""
         return self.rate_from(self.omega0.tolist())
 
     def rate_from(self, omega0: Sequence[float]) -> float:
         """``rate_scale`` of this body and loads started with ``omega0`` (three numbers) instead."""
-        return max(math.sqrt(sum(w * w for w in omega0)), self.shared("load rate", self._load_rate))
-
-    def _load_rate(self) -> float:
-        """The loads' part of ``rate_scale``: √(|M|/I_min), their frequencies, damping / I_min."""
-        rates = [np.sqrt(torque_scale(self.loads) / float(np.min(self.moments)))]
-        if self.loads.terms.size:
-            rates.append(float(np.max(np.abs(self.loads.terms[:, 9]))))
-        rates.append(self.loads.damping / float(np.min(self.moments)))
-        if self.loads.expressions is not None:
-            rates.append(float(np.max(np.abs(self.loads.expressions.rows[:, EX_RATE]))))
-        return float(max(rates))
-
-    @cached_property
-    def model(self) -> Model:
-        """The one value the kernels receive: Euler coefficients, breakpoints and the loads,
-        absent groups as None (``rotlab.scene.loads.Model``)."""
-        return self.shared("model", lambda: build_model(self.loads, self.moments))
+        return max(math.sqrt(sum(w * w for w in omega0)), self.rigid.load_rate)
 
     @cached_property
     def invariants(self) -> tuple[str, ...]:
         """The names of the quantities this scene conserves (``rotlab.invariants``)."""
         return invariant_table.names_for(self)
-
-    @cached_property
-    def shortest_window(self) -> float:
-        """The shortest time a windowed load or a table segment acts, s (inf when none)."""
-        return self.shared("shortest window", lambda: shortest_window(self.loads))
 
 
 def initial_quaternion(initial: cfg.Initial) -> np.ndarray:
@@ -161,42 +193,41 @@ def initial_quaternion(initial: cfg.Initial) -> np.ndarray:
 
 def build_scene(scenario: cfg.Scenario, torque: Callable | None = None, frame: str = "body") -> Scene:
     """The scene of ``scenario``; ``torque`` adds a Python function fn(t, q, omega) -> M (user's
-    body frame in, M in ``frame``) compiled by numba (``rotlab.scene.loads.user_torque``)."""
-    rigid = _rigid_part(scenario) if torque is None else _build_rigid(scenario, user_torque(torque, frame, _principal(scenario.body)[1]), torque)
+    body frame in, M in ``frame``) compiled by numba (``rotlab.scene.user_torque``)."""
+    if torque is None:
+        rigid = RIGID_PARTS.get(scenario)
+    else:
+        rigid = _build_rigid(scenario, user_torque(torque, frame, _principal(scenario.body)[1]), torque)
     q0 = initial_quaternion(scenario.initial)
     if scenario.body.principal_moments is None:  # Λ_P = Λ_U ∘ Λ_axes
-        q0 = quat.multiply(q0, rigid.fields["axes_quaternion"])
-    omega0 = rigid.fields["axes"].T @ np.asarray(scenario.initial.omega, dtype=float)
-    scene = Scene(scenario=scenario, q0=q0, omega0=omega0, **rigid.fields)
-    scene.__dict__.update(rigid.properties)  # cached properties, filled in
-    return scene
+        q0 = quat.multiply(q0, rigid.axes_quaternion)
+    omega0 = rigid.axes.T @ np.asarray(scenario.initial.omega, dtype=float)
+    return Scene(scenario=scenario, rigid=rigid, q0=q0, omega0=omega0)
 
 
-@dataclass(frozen=True)
-class _Rigid:
-    """What a scene derives from its body and loads alone (the initial state aside)."""
+class RigidParts:
+    """The ``Rigid`` part of the scenarios seen, by body and loads (at most ``size``, the oldest
+    dropped first): equal bodies and loads share one, however the scenario was written."""
 
-    fields: dict[str, Any]  # Scene's fields from moments to symmetry_axis
-    properties: dict[str, Any]  # Scene's cached properties that depend on these alone
+    def __init__(self, size: int = 256) -> None:
+        self.size = size
+        self._kept: OrderedDict[object, Rigid] = OrderedDict()
+
+    def get(self, scenario: cfg.Scenario) -> Rigid:
+        key: object = (scenario.body, tuple(scenario.loads))  # frozen models, compared by value ...
+        try:
+            hash(key)
+        except TypeError:  # ... unless a load holds a mapping (an expression's constants)
+            key = scenario.body.model_dump_json() + "".join(load.model_dump_json() for load in scenario.loads)
+        found = self._kept.get(key)
+        if found is None:
+            if len(self._kept) >= self.size:
+                self._kept.popitem(last=False)
+            found = self._kept[key] = _build_rigid(scenario, None)
+        return found
 
 
-RIGID_SIZE = 256  # bodies-with-loads kept, oldest dropped first
-_RIGID: dict[tuple, _Rigid] = {}
-
-
-def _rigid_part(scenario: cfg.Scenario) -> _Rigid:
-    """``_build_rigid``, shared among scenarios with equal body and loads (frozen models, compared
-    by value): a sweep over initial states or a loop over ``rotlab.simulate`` builds it once."""
-    key = (scenario.body, tuple(scenario.loads))
-    try:
-        found = _RIGID.get(key)
-    except TypeError:  # a load holding a mapping (an expression's constants): not shared
-        return _build_rigid(scenario, None)
-    if found is None:
-        if len(_RIGID) >= RIGID_SIZE:
-            _RIGID.pop(next(iter(_RIGID)))
-        found = _RIGID[key] = _build_rigid(scenario, None)
-    return found
+RIGID_PARTS = RigidParts()
 
 
 def _principal(body: cfg.Body) -> tuple[np.ndarray, np.ndarray]:
@@ -206,27 +237,17 @@ def _principal(body: cfg.Body) -> tuple[np.ndarray, np.ndarray]:
     return inertia.principal_axes(np.asarray(body.inertia_tensor, dtype=float))
 
 
-def _build_rigid(scenario: cfg.Scenario, user, user_function: Callable | None = None) -> _Rigid:
+def _build_rigid(scenario: cfg.Scenario, user, user_function: Callable | None = None) -> Rigid:
     moments, axes = _principal(scenario.body)
     axes_q = np.array([1.0, 0.0, 0.0, 0.0]) if scenario.body.principal_moments is not None else quat.from_matrix(axes)
-    loads = compile_loads(scenario, axes, moments, user, user_function)
+    loads = compile_loads(scenario.body, scenario.loads, axes, moments, user, user_function)
     forces = active_forces(loads)
     has_work = has_nonconservative(loads)
-    field = _common_direction(forces[:, 3:]) if len(forces) and not has_work else None
+    direction = _common_direction(forces[:, F_FORCE:F_FORCE + 3]) if len(forces) and not has_work else None
     kind, reason, symmetry_axis = _classify(moments, forces, has_work)
-    fields = dict(moments=moments, axes=axes, axes_quaternion=axes_q, loads=loads, kind=kind, kind_reason=reason,
-                  has_potential=bool(len(forces)), has_work=has_work, field_direction=None if field is None else -field,
-                  symmetry_axis=symmetry_axis)
-    return _Rigid(fields, {"is_principal": _is_identity(axes), "content_key": _content_key(moments, loads)})
-
-
-def _content_key(moments: np.ndarray, loads: LoadArrays) -> tuple | None:
-    loads_bytes = loads_key(loads)
-    return None if loads_bytes is None else (moments.tobytes(), loads_bytes)
-
-
-def _is_identity(axes: np.ndarray) -> bool:
-    return bool(np.array_equal(axes, np.eye(3)))
+    return Rigid(body=scenario.body, specs=tuple(scenario.loads), moments=moments, axes=axes, axes_quaternion=axes_q, loads=loads, kind=kind, kind_reason=reason,
+                 has_potential=bool(len(forces)), has_work=has_work, field_direction=None if direction is None else -direction,
+                 symmetry_axis=symmetry_axis)
 
 
 def _common_direction(vectors: np.ndarray) -> np.ndarray | None:
@@ -244,7 +265,7 @@ def _classify(moments: np.ndarray, forces: np.ndarray, has_work: bool) -> tuple[
         return GENERAL, "non-conservative or time-dependent loads", None
     if len(forces) > 1:
         return GENERAL, f"{len(forces)} forces act", None
-    arm = forces[0, :3] / np.linalg.norm(forces[0, :3])
+    arm = forces[0, F_POINT:F_POINT + 3] / np.linalg.norm(forces[0, F_POINT:F_POINT + 3])
     scale = float(np.max(moments))
     if np.ptp(moments) <= SYMMETRY_RTOL * scale:
         return LAGRANGE, "spherical body, one uniform force (symmetry axis through the centre of mass)", arm

@@ -3,7 +3,7 @@ its parameters, status, method, steps, wall time (``seconds``: this case's own r
 of the report made for its worker's chunk of cases; empty when the cases ran together in the
 ensemble kernel), the observables of ``rotlab.sweep.observables`` and the max drift of each
 invariant.  The recording that compares the cases is written by
-``rotlab.recording.sweep``."""
+``rotlab.sweep.recording``."""
 
 from __future__ import annotations
 

@@ -125,20 +125,14 @@ def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOu
     return outcomes
 
 
-def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError], expected_runs: int = 0,
-                    choice: SharedChoice | None = None) -> list[CaseOutcome]:
+def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError], choice: SharedChoice | None = None) -> list[CaseOutcome]:
     """Cases one after the other, reported together (``outcomes_of``); never raises for a case:
-    an invalid one or one whose run raised is an "error" outcome.  ``expected_runs``: the cases
-    this worker process is expected to run (``auto`` shares a kernel's loading among them).
-    ``choice``: the method every case runs with (a sweep over initial states: ``shared_choice``),
+    an invalid one or one whose run raised is an "error" outcome.  ``choice``: the method every case runs with (a sweep over initial states: ``shared_choice``),
     else each case's own."""
     from rotlab import api
-    from rotlab.methods.choose import expect_runs
     from rotlab.methods.registry import get_method
     from rotlab.scene.scene import build_scene
 
-    if expected_runs:
-        expect_runs(expected_runs)
     outcomes: list[CaseOutcome | None] = [None] * len(cases)
     runs: list[tuple[int, Case, Trajectory, float]] = []
     plan: api.Plan | None = None
@@ -163,15 +157,15 @@ def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError
     return outcomes
 
 
-def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError, expected_runs: int = 0) -> CaseOutcome:
+def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError) -> CaseOutcome:
     """One case, never raising (importable by Dask workers)."""
-    return run_sweep_cases([case], [scenario], expected_runs)[0]
+    return run_sweep_cases([case], [scenario])[0]
 
 
-def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case], expected_runs: int = 0,
+def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case],
                     choice: SharedChoice | None = None) -> list[CaseOutcome]:
     """A local worker's task: ``cases`` validated here (``case_scenario``) and run (``run_sweep_cases``)."""
-    return run_sweep_cases(cases, [case_scenario(raw, base, case, source) for case in cases], expected_runs, choice)
+    return run_sweep_cases(cases, [case_scenario(raw, base, case, source) for case in cases], choice)
 
 
 def ensemble_eligible(p: SweepPlan) -> bool:
@@ -286,19 +280,16 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         return SweepRun([outcomes[case.index] for case in p.cases], f"Dask cluster at {dask_address}", run.stopped)
     workers = max(1, min(jobs, len(p.cases)))
     size = 1 if timeout is not None else chunk_size(len(p.cases), workers)
-    # each worker runs about this many cases: auto shares a kernel's loading among them; not with a
-    # per-case --timeout, whose clock the first case's kernel load would run out on every new worker
-    per_worker = -(-len(p.cases) // workers) if timeout is None else 0
-    # only initial states vary: one method for all cases, chosen here (not with a per-case --timeout:
-    # its clock would run out on a new worker's kernel load, for which the choice counts on sharing it)
+    # only initial states vary: one method for all cases, chosen here for the most demanding (not with
+    # a per-case --timeout: each case is then a run of its own, as `rotlab run` would make it)
     choice = shared_choice(p) if timeout is None and initial_only(p.base.sweep.parameters) else None
     chunks = [p.cases[i:i + size] for i in range(0, len(p.cases), size)]
-    run = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, per_worker, choice) for chunk in chunks], jobs,
+    run = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, choice) for chunk in chunks], jobs,
                     timeout=timeout, retries=retries if size == 1 else 0, preload=WORKER_MODULES, warm=warm)
     outcomes, again = collect_outcomes(chunks, run)
     stopped = run.stopped
     if size > 1 and again and stopped is None:  # a chunk's worker died: its cases one by one
-        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], per_worker, choice) for case in again], jobs,
+        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], choice) for case in again], jobs,
                           retries=retries, preload=WORKER_MODULES)
         outcomes.update(collect_outcomes([[case] for case in again], rerun)[0])
         stopped = rerun.stopped

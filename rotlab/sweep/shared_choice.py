@@ -2,7 +2,7 @@
 
 When a sweep varies only ``initial.*`` keys, its cases share the body, the loads, the time grid
 and the solver settings: ``auto`` then makes one choice for all of them, in the main process,
-instead of a fresh one per case in the workers (~45 µs a case, more than a short case's
+instead of a fresh one per case in the workers (a choice can cost more than a short case's
 integration).  It is the choice for the most demanding case — the fastest spin, and the largest
 error floor and amplification near the separatrix (``rotlab.methods.choose.worst_work``) — so
 that every case is expected to meet rtol with it, whatever the number of workers.  A case on or
@@ -76,7 +76,7 @@ def shared_choice(p: SweepPlan) -> SharedChoice | None:
         speeds = np.sqrt(row_dot(omegas, omegas))
         fastest = positions[int(np.argmax(np.where(within, speeds, -1.0)))]
         scenario = case_scenario(p.raw, p.base, p.cases[fastest], p.source)  # auto's view of exact's cost depends on ω₀ too
-        chosen = ensemble_choice(scene if isinstance(scenario, InputError) else build_scene(scenario), settings, t, work, len(p.cases))
+        chosen = ensemble_choice(scene if isinstance(scenario, InputError) else build_scene(scenario), settings, t, work)
     except InputError:
         return None
     if chosen is None:

@@ -30,4 +30,7 @@ METHOD = FixedStepMethod(
     evaluations_per_step=lambda scene, order: 0,  # no right-hand side: an implicit rotation per step
     requires=_requires,
     extra_args=lambda scene, order: (order, modified_coefficients(scene.moments)),
+    auto_orders=(8, 10, 12),  # (the lower orders never win at the tolerances auto is asked for)
+    auto_probe=False,  # high order: the a priori step of the cost model, no probe run
+    given_step_preference=0,  # the free body
 )

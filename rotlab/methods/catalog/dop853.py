@@ -7,6 +7,7 @@ import numpy as np
 
 from rotlab.core import dop853 as kernel
 from rotlab.methods.base import ADAPTIVE, ProgressCallback, Settings, Solution
+from rotlab.methods.cost import Estimate, Work
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
 from rotlab.scene.scene import Scene
 
@@ -18,12 +19,19 @@ class DOP853:
     adaptive = True  # steps chosen from rtol/atol, not a fixed step
     orders: tuple[int, ...] = ()
     order_of_accuracy = 8
+    given_step_preference = None
 
     def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
         return 12  # 12 stages, the 13th is the next step's first (FSAL); dense output adds 3 per sampled step
 
     def unsupported(self, scene: Scene) -> str | None:
         return None
+
+    def auto_estimates(self, scene: Scene, settings: Settings, work: Work) -> list[Estimate]:
+        return []  # never cheaper than taylor at equal error on the bench: auto runs it only where no cost model applies
+
+    def auto_settings(self, estimate: Estimate, settings: Settings) -> Settings:
+        return settings
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         y = initial_state(scene)

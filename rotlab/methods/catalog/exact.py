@@ -15,7 +15,9 @@ import numpy as np
 from rotlab.core import quaternion as quat
 from rotlab.core.exact.lagrange import lagrange_top_solution  # (imports scipy.special: at selection, not in the timed solve)
 from rotlab.core.exact.torque_free import torque_free_solution
+from rotlab.core.torques import F_FORCE, F_POINT
 from rotlab.methods.base import NO_STEPS, ProgressCallback, Settings, Solution
+from rotlab.methods.cost import Estimate, Work, exact_estimate
 from rotlab.methods.stepping import evaluate_in_windows
 from rotlab.scene.scene import LAGRANGE, TORQUE_FREE, Scene
 from rotlab.scene.loads import active_forces
@@ -30,6 +32,7 @@ class Exact:
     adaptive = False
     orders: tuple[int, ...] = ()
     order_of_accuracy = None
+    given_step_preference = None
 
     def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
         return 0
@@ -38,6 +41,13 @@ class Exact:
         if scene.kind in (TORQUE_FREE, LAGRANGE):
             return None
         return f"no exact solution for a {scene.kind} scene ({scene.kind_reason}); exact covers torque-free bodies and the Lagrange top"
+
+    def auto_estimates(self, scene: Scene, settings: Settings, work: Work) -> list[Estimate]:
+        """Set-up and a cost per sample (no steps); offers no order."""
+        return [exact_estimate(_closed_form(scene), work)] if settings.order is None else []
+
+    def auto_settings(self, estimate: Estimate, settings: Settings) -> Settings:
+        return settings
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         t0 = float(t[0])
@@ -57,9 +67,18 @@ class Exact:
         return solution
 
 
+def _closed_form(scene: Scene) -> str:
+    """Which closed form runs (its cost differs): "lagrange", "axisymmetric" (a symmetric body,
+    or a spin about a principal axis) or "asymmetric" (Jacobi elliptic functions)."""
+    if scene.kind == LAGRANGE:
+        return "lagrange"
+    distinct = len({float(x) for x in scene.moments})
+    return "axisymmetric" if distinct < 3 or np.count_nonzero(scene.omega0) <= 1 else "asymmetric"
+
+
 def _lagrange(scene: Scene, t0: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (row,) = active_forces(scene.loads)
-    arm, force = row[:3], row[3:]
+    arm, force = row[F_POINT:F_POINT + 3], row[F_FORCE:F_FORCE + 3]
     axis = scene.symmetry_axis
     body_q = quat.between(axis, E_Z)  # B: principal → canonical body frame
     space_q = quat.between(-force, E_Z)  # S: space → canonical space ("up" = −F̂ → e_z)

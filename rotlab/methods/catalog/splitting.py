@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from rotlab.core.splitting import ORDERS, splitting_advance, stages
 from rotlab.methods.fixed_step import FixedStepMethod
-from rotlab.scene.scene import Scene
+from rotlab.scene.scene import TORQUE_FREE, Scene
 
 
 def _requires(scene: Scene) -> str | None:
@@ -34,4 +34,7 @@ METHOD = FixedStepMethod(
     evaluations_per_step=lambda scene, order: stages(order) if len(scene.loads.forces) else 0,
     requires=_requires,
     extra_args=lambda scene, order: (order,),
+    auto_orders=(4, 6, 8),
+    auto_applies=lambda scene: scene.kind != TORQUE_FREE,  # on a free body dmv is cheaper at every order, at equal accuracy
+    given_step_preference=1,  # conservative scenes
 )

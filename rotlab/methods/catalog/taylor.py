@@ -9,13 +9,23 @@ from __future__ import annotations
 import numpy as np
 
 from rotlab.core import taylor as kernel
+from rotlab.core.torques import T_FRAME, TB_FRAME
 from rotlab.errors import InputError
 from rotlab.methods.base import ADAPTIVE, ProgressCallback, Settings, Solution
+from rotlab.methods.cost import Estimate, Work, taylor_estimate
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
-from rotlab.scene.loads import SPACE, active_forces, has_nonconservative
+from rotlab.scene.load_kinds import SPACE
+from rotlab.scene.loads import active_forces, has_nonconservative
 from rotlab.scene.scene import Scene
 
 MIN_ORDER, MAX_ORDER = 4, 40
+# auto runs taylor at local tolerance rtol / MARGIN: its global error is up to ~20× its local
+# tolerance on fast spinners (configs/lagrange.toml, general.toml), near a separatrix rtol / the
+# amplification ...
+MARGIN = 10.0
+# ... and never below MIN_TOLERANCE: a smaller tolerance asks for no more than rounding gives and only
+# shrinks the steps toward the step budget (a spin exactly on a separatrix asked for 1e-303)
+MIN_TOLERANCE = 1e-16
 
 
 class Taylor:
@@ -25,6 +35,7 @@ class Taylor:
     adaptive = True  # steps chosen from rtol/atol, not a fixed step
     orders = tuple(range(MIN_ORDER, MAX_ORDER + 1))  # solver.order; default from rtol
     order_of_accuracy = None  # chosen per run (``order_for``)
+    given_step_preference = None
 
     def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
         return 0  # no right-hand-side evaluation: one Taylor series (O(order²) products) per step
@@ -33,6 +44,19 @@ class Taylor:
         if scene.loads.user is not None:
             return "taylor needs the Taylor series of every load, and a Python torque function has none (use dop853, rk4 or rkmk4)"
         return None
+
+    def auto_estimates(self, scene: Scene, settings: Settings, work: Work) -> list[Estimate]:
+        """At local tolerance rtol / ``MARGIN`` (or / the amplification near a separatrix), the
+        cheapest order from Jorba–Zou's up (``cost.taylor_estimate``), or ``solver.order``."""
+        if settings.order is not None and not MIN_ORDER <= settings.order <= MAX_ORDER:
+            return []
+        tolerance = max(settings.rtol / max(MARGIN, work.amplification), MIN_TOLERANCE)
+        return [taylor_estimate(settings.order, tolerance, work)]
+
+    def auto_settings(self, estimate: Estimate, settings: Settings) -> Settings:
+        """The estimate's order and local tolerance (atol scaled alike), steps from them."""
+        scale = estimate.rtol / settings.rtol
+        return Settings(step=None, rtol=estimate.rtol, atol=settings.atol * scale, max_steps=settings.max_steps, order=estimate.order)
 
     def order_for(self, settings: Settings) -> int:
         if settings.order is not None:
@@ -43,7 +67,7 @@ class Taylor:
         order = self.order_for(settings)
         if not MIN_ORDER <= order <= MAX_ORDER:
             raise InputError("solver.order", f"taylor takes orders {MIN_ORDER} to {MAX_ORDER}, not {order}")
-        c0, T, lever_force, flags = scene.shared("taylor", lambda: kernel_constants(scene))
+        c0, T, lever_force, flags = scene.rigid.kernel_constants(self.name, None, lambda: kernel_constants(scene))
         model = scene.model
         y = initial_state(scene)
         counters = np.zeros(1, dtype=np.int64)
@@ -90,7 +114,7 @@ def _lone_force(loads, forces: np.ndarray, has_space: bool) -> np.ndarray | None
 
 
 def _has_space(loads) -> bool:
-    return bool(np.any(loads.terms[:, 0] == SPACE) or np.any(loads.tables[:, 0] == SPACE))
+    return bool(np.any(loads.terms[:, T_FRAME] == SPACE) or np.any(loads.tables[:, TB_FRAME] == SPACE))
 
 
 METHOD = Taylor()
