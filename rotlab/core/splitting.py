@@ -46,10 +46,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import all_finite, store_row
+from rotlab.core.time_loop import NONFINITE, OK, end_sample
 from rotlab.core.torques import conservative_torque, has_forces
 
-OK, NONFINITE = 0, 1
 
 ORDERS = (2, 4, 6, 8)
 
@@ -248,8 +247,7 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order)
         steps += substeps
         y[0], y[1], y[2], y[3] = q0, q1, q2, q3
         y[4], y[5], y[6] = l1 * inv1, l2 * inv2, l3 * inv3
-        if not all_finite(y):
+        if end_sample(y, out, i) != OK:
             return NONFINITE, i, steps
-        store_row(out, i, y)
         i += 1
     return OK, i, steps
