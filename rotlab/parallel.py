@@ -408,8 +408,8 @@ def _serve(fn: Callable[..., Any], conn: Connection, preload: tuple[str, ...], p
     keep_heap()  # the tasks' NumPy temporaries reuse the heap instead of faulting in fresh pages
     for module in preload:
         importlib.import_module(module)
-    if "pyarrow" in sys.modules:  # it writes recordings, and holds no pandas objects (rotlab.recording.arrow)
-        from rotlab.recording.arrow import withhold_pandas
+    if "pyarrow" in sys.modules:  # it writes recordings, and holds no pandas objects (rotlab.arrow)
+        from rotlab.arrow import withhold_pandas
 
         withhold_pandas()
     while True:

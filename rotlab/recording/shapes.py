@@ -15,7 +15,7 @@ import numpy as np
 
 from rotlab.config.models import Body
 from rotlab.core import quaternion as quat
-from rotlab.scene import inertia
+from rotlab import inertia
 
 
 @dataclass(frozen=True)
