@@ -34,7 +34,7 @@ for _ in range(repeats):
     started = time.perf_counter()
     rotlab.simulate(scenario)
     times.append(time.perf_counter() - started)
-times.sort()
+times = sorted(times) or [first]
 print(json.dumps({"first": first, "min": times[0], "median": times[len(times) // 2], "method": traj.stats.method,
                   "reason": traj.stats.reason, "state": traj._state[:, :7].tolist()}))
 """
@@ -58,7 +58,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--target", type=float, default=1e-10)
     args = parser.parse_args()
-    print(f"| problem | method | rtol | max error | runs | first call (ms) | min (ms) | median (ms) | dop853 min / auto min |")
+    print("| problem | method | rtol | max error | runs | first call (ms) | min (ms) | median (ms) | dop853 min / auto min |")
     print("|---|---|---:|---:|---|---:|---:|---:|---:|")
     for problem in get_problems(["gni", "heavy-top"]):
         scenario = problem.scenario()

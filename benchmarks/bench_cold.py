@@ -30,7 +30,10 @@ CHILD = r"""
 import sys, tempfile, time
 from pathlib import Path
 import rotlab
-from rotlab.method_names import METHODS
+try:
+    from rotlab.method_names import METHODS
+except ImportError:  # code before the method catalog (PYTHONPATH=an older checkout)
+    from rotlab.methods.names import METHOD_MODULES as METHODS
 from rotlab.methods.registry import get_method
 from rotlab.scene.scene import build_scene
 

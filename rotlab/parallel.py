@@ -258,7 +258,7 @@ class _Worker:
 
 class WarmWorkers:
     """Workers started before their tasks are known, so that their start-up (spawn, imports) runs
-    while the main process still imports and plans (a sweep: ~0.5 s).  ``run_tasks`` takes as
+    while the main process still imports and plans.  ``run_tasks`` takes as
     many as it needs when given the same ``fn`` and ``preload``; the others are stopped then,
     and every one left is stopped when the ``with`` block ends (an error or Ctrl-C in the
     planning included).  A warm worker that died waiting is replaced when its first task fails
@@ -302,7 +302,7 @@ class WarmWorkers:
 class _Pool:
     """Workers, each holding its running task and — while tasks are short — the next one, so
     that it starts that one as soon as it sends a result instead of waiting for the main process
-    (a round trip of ~0.3 ms, as long as a short case itself).  A queued task has not started:
+    (a round trip, as long as a short case itself).  A queued task has not started:
     a worker's death or time-out puts it back in the queue without costing it an attempt."""
 
     def __init__(self, fn: Callable[..., Any], size: int, preload: tuple[str, ...], ready: list[_Worker]) -> None:
@@ -394,7 +394,7 @@ class _Pool:
     def close(self, kill: bool) -> None:
         self.workers += self.ready  # warm workers no task reached
         self.ready = []
-        for worker in self.workers:  # all at once (each takes ~0.2 s to exit), then wait for each
+        for worker in self.workers:  # all at once (each takes a while to exit), then wait for each
             worker.tell_to_stop(kill)
         for worker in self.workers:
             worker.stop(kill)
@@ -417,7 +417,7 @@ def _serve(fn: Callable[..., Any], conn: Connection, preload: tuple[str, ...], p
             item = conn.recv()
         except (EOFError, OSError):
             return
-        if item is None:  # done: every task's files are finished; skip the interpreter's teardown (~0.2 s)
+        if item is None:  # done: every task's files are finished; skip the interpreter's teardown
             from rotlab.ending import leave
 
             leave(0)

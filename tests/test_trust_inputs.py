@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from rotlab import inertia
-from tests.conftest import CONFIGS, VALID_BODY
+from tests.conftest import VALID_BODY
 
 FREE = VALID_BODY + "[initial]\nomega = [0.1, 0.2, 0.3]\n[time]\nend = 1.0\nsample_rate = 20\n"
 TOP = "[body]\nprincipal_moments = [{a}, {a}, {c}]\nmass = {m}\ncenter_of_mass = [0, 0, {z}]\n" \

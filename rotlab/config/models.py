@@ -160,7 +160,7 @@ class Body(_Model):
             )
         if self.principal_moments is not None:
             key = "principal_moments"
-            moments = self.principal_moments  # three floats: plain Python (NumPy on 3 numbers costs a sweep case ~6 µs)
+            moments = self.principal_moments  # three floats: plain Python (NumPy's overhead on 3 numbers shows in a sweep case)
             if any(m <= 0.0 for m in moments):
                 raise _invalid(key, f"moments of inertia must be > 0 kg·m² (got {list(self.principal_moments)})")
         else:

@@ -50,7 +50,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.time_loop import NONFINITE, OK, end_sample
+from rotlab.core.kernel_status import NONFINITE, OK, end_sample
 
 
 ORDERS = (2, 4, 6, 8, 10, 12)

@@ -8,21 +8,18 @@ The state layout is ``rotlab.core.state``; the loads reach ``rhs`` as one value,
 ``Model`` (``rotlab.scene.loads``), and only ``rotlab.core.torques`` reads its load fields (a
 scene pays only for the loads it has).  Λ is not renormalised: |Λ| − 1 is reported as drift.
 
-Inlining.  ``rhs`` and the load overloads are inlined by numba (``inline="always"``): a kernel
-specialises on the model's load groups with no call in between.  numba types an inlined function
-anew at every call site, and that typing was most of a kernel's compile time (LLVM ~10–20%), so
-a kernel types ``rhs`` once and lets LLVM inline it: ``rhs_llvm_inlined`` (numba's
-``forceinline``, LLVM's ``alwaysinline``), called at the four stages of ``rk4`` and ``rkmk4`` and
-compiled once per model type and process, shared by them, by ``dop853``'s stages and by
-``rhs_called`` (the cold sites of ``dop853``: its start and restarts).  ``dop853`` calls it right
-in its stage loops: from inside a ``forceinline`` stage function it made ``general.toml`` 28%
-slower a step.  Functions called at several
-sites whose types do not involve the model (``rkmk4``'s exponential map, ``splitting``'s turns)
-are ``forceinline`` too: typed once per process, not once per kernel and model type.  Helpers off the hot path of the
-built-in loads (the helpers below, ``torques._in_body``, the expression loads' torque,
-``quaternion.rotate_quadratic``) are plain compiled functions, called.  The quaternion rotations
-stay inlined by numba: called, they made gravity's kick 3.5% slower, forced 0.7%.  Every change
-gave the same numbers, bit for bit; ``docs/benchmarks.md`` has the compile times and steps.
+Inlining.  numba types an inlined function anew at every call site, and typing dominates a
+kernel's compile time, so code is typed once and inlined by LLVM wherever it can be: ``rhs`` is
+typed once per model type and process as ``rhs_llvm_inlined`` (numba's ``forceinline``, LLVM's
+``alwaysinline``) and shared by the stages of ``rk4``, ``rkmk4`` and ``dop853`` and by
+``rhs_called`` (the cold sites of ``dop853``: its start and restarts); the load groups' torques
+(``torques.forces_torque`` …) have fixed argument types, so they are typed once per process and
+cached on disk, whatever the scene.  Only the per-group overloads that skip an absent group
+(None) are inlined by numba: a kernel specialises on the model's load groups and pays nothing for
+the groups a scene lacks.  ``dop853`` calls ``rhs_llvm_inlined`` right in its stage loops: a
+``forceinline`` stage function around it costs a step more.  Helpers off the hot path (the
+helpers below, ``torques._in_body``, the formula loads' torque, ``quaternion.rotate_quadratic``)
+are plain compiled functions, called.
 """
 
 from __future__ import annotations
@@ -71,9 +68,9 @@ def rhs_llvm_inlined(t, y, dy, model):
 
 @njit(cache=True)
 def rhs_called(t, y, dy, model):
-    """``rhs``, called instead of inlined, for call sites off a kernel's hot path: numba types an
-    inlined ``rhs`` again at every site (~2 s each with general.toml's loads); this one is
-    ``rhs_llvm_inlined``'s, typed once per model type and process."""
+    """``rhs``, called instead of inlined, for call sites off a kernel's hot path: numba would type
+    an inlined ``rhs`` again at every site; this one is ``rhs_llvm_inlined``'s, typed once per
+    model type and process."""
     rhs_llvm_inlined(t, y, dy, model)
 
 
@@ -93,7 +90,7 @@ def next_piece(t, t_end, breaks, b):
 @njit(cache=True)
 def count_at_or_below(values, x):
     """How many of the sorted ``values`` are ≤ x: ``np.searchsorted(values, x, side="right")``
-    by bisection (numba's searchsorted compiles ~1 s of helpers into a kernel's first build)."""
+    by bisection (numba's searchsorted compiles a sizeable set of helpers into a kernel)."""
     lo, hi = 0, values.shape[0]
     while lo < hi:
         mid = (lo + hi) // 2
@@ -107,8 +104,7 @@ def count_at_or_below(values, x):
 @njit(cache=True)
 def store_row(out, i, y):
     """out[i, :] = y, element by element: numba's slice assignment from an array compiles a
-    formatted shape-mismatch message with it (string and unicode helpers: ~3 s of a kernel's
-    first compilation on an empty cache, measured on rk4)."""
+    formatted shape-mismatch message with it (string and unicode helpers, costly to compile)."""
     for m in range(y.shape[0]):
         out[i, m] = y[m]
 

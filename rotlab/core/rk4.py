@@ -1,49 +1,67 @@
-"""Classical fixed-step Runge–Kutta 4 (the seeds' baseline), without renormalisation:
+"""Classical fixed-step Runge–Kutta 4 (the seeds' baseline), without renormalisation.
 
     k1 = f(t, y), k2 = f(t + h/2, y + h k1/2), k3 = f(t + h/2, y + h k2/2), k4 = f(t + h, y + h k3)
     y ← y + h (k1 + 2 k2 + 2 k3 + k4) / 6
-
-stepped by the shared time loop (``rotlab.core.time_loop``: equal steps per sample interval,
-split at load breakpoints, k4 at the breakpoint's left limit).
+Each sample interval [t_{i−1}, t_i] is split into ``substeps`` equal steps, so samples fall on
+steps exactly.  A step that contains a load breakpoint (a window edge or table knot, see
+``rotlab.scene.loads.breakpoints``) is split there: the part ending at the breakpoint sees the
+loads' left limit, the next part starts from the right limit, so a switching load does not cost
+RK4 its order.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
+import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, rhs_llvm_inlined
-from rotlab.core.time_loop import advance
+from rotlab.core.dynamics import STATE_SIZE, count_at_or_below, next_piece, rhs_llvm_inlined
+from rotlab.core.kernel_status import NONFINITE, OK, end_sample
 
-
-@njit(cache=True, forceinline=True)
-def rk4_step(t, h, t_last, y, model, work):
-    """One RK4 step of size h from t; the last stage at ``t_last`` (t + h, or its left limit)."""
-    k1, k2, k3, k4, tmp = work
-    n = STATE_SIZE
-    rhs_llvm_inlined(t, y, k1, model)
-    for m in range(n):
-        tmp[m] = y[m] + 0.5 * h * k1[m]
-    rhs_llvm_inlined(t + 0.5 * h, tmp, k2, model)
-    for m in range(n):
-        tmp[m] = y[m] + 0.5 * h * k2[m]
-    rhs_llvm_inlined(t + 0.5 * h, tmp, k3, model)
-    for m in range(n):
-        tmp[m] = y[m] + h * k3[m]
-    rhs_llvm_inlined(t_last, tmp, k4, model)
-    for m in range(n):
-        y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
-
-
-class RK4(NamedTuple):
-    """The scheme of ``rk4_step`` (``rotlab.core.time_loop``)."""
-
-
-RK4.step = rk4_step
 
 
 @njit(cache=True)
 def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
-    """``rotlab.core.time_loop.advance`` with RK4 steps."""
-    return advance(RK4(), y, times, out, i_start, substeps, max_steps, model)
+    """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, writing ``out[i]``.
+
+    Stops after at most ``max_steps`` steps (at a sample).  Returns (status, next sample index,
+    steps taken, partial steps at breakpoints included); on NONFINITE the returned index is the
+    sample whose interval failed.  ``model``: the scene's ``rotlab.scene.loads.Model`` (its
+    ``breaks``: sorted load breakpoints, may be empty).
+    """
+    n = STATE_SIZE
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    tmp = np.empty(n)
+    steps = 0
+    i = i_start
+    breaks = model.breaks
+    b = count_at_or_below(breaks, times[i_start - 1])  # next breakpoint
+    while i < times.shape[0] and steps + substeps <= max_steps:
+        t0 = times[i - 1]
+        h_nominal = (times[i] - t0) / substeps
+        for j in range(substeps):
+            t = t0 + j * h_nominal
+            t_end = times[i] if j == substeps - 1 else t0 + (j + 1) * h_nominal
+            while t < t_end:  # one step, or its pieces between breakpoints
+                end, t_last, b = next_piece(t, t_end, breaks, b)
+                h = end - t
+                rhs_llvm_inlined(t, y, k1, model)
+                for m in range(n):
+                    tmp[m] = y[m] + 0.5 * h * k1[m]
+                rhs_llvm_inlined(t + 0.5 * h, tmp, k2, model)
+                for m in range(n):
+                    tmp[m] = y[m] + 0.5 * h * k2[m]
+                rhs_llvm_inlined(t + 0.5 * h, tmp, k3, model)
+                for m in range(n):
+                    tmp[m] = y[m] + h * k3[m]
+                rhs_llvm_inlined(t_last, tmp, k4, model)
+                for m in range(n):
+                    y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
+                steps += 1
+                t = end
+        if end_sample(y, out, i) != OK:
+            return NONFINITE, i, steps
+        i += 1
+    return OK, i, steps

@@ -19,14 +19,13 @@ to (θ, ω, W) from θ = 0 with ω̇, Ẇ from ``rhs``:
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, rhs_llvm_inlined
+from rotlab.core.dynamics import STATE_SIZE, count_at_or_below, next_piece, rhs_llvm_inlined
+from rotlab.core.kernel_status import NONFINITE, OK, end_sample
 from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
-from rotlab.core.time_loop import advance
+
 
 
 @njit(cache=True, forceinline=True)
@@ -70,56 +69,68 @@ def _stage_orientation(y, tmp, ux, uy, uz):
     tmp[3] = q3 + (q0 * e3 + q3 * e0 + q1 * e2 - q2 * e1)
 
 
-@njit(cache=True, forceinline=True)
-def rkmk4_step(t, h, t_last, y, model, work):
-    """One RKMK4 step of size h from t (module docstring); the last stage at ``t_last``."""
-    k1, k2, k3, k4, tmp = work
-    n = STATE_SIZE
-    # stage 1: θ = 0, dexp⁻¹ = identity
-    rhs_llvm_inlined(t, y, k1, model)
-    a1x, a1y, a1z = h * y[4], h * y[5], h * y[6]
-    # stage 2: θ = k1/2
-    ux, uy, uz = 0.5 * a1x, 0.5 * a1y, 0.5 * a1z
-    _stage_orientation(y, tmp, ux, uy, uz)
-    for m in range(4, n):
-        tmp[m] = y[m] + 0.5 * h * k1[m]
-    rhs_llvm_inlined(t + 0.5 * h, tmp, k2, model)
-    a2x, a2y, a2z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
-    # stage 3: θ = k2/2
-    ux, uy, uz = 0.5 * a2x, 0.5 * a2y, 0.5 * a2z
-    _stage_orientation(y, tmp, ux, uy, uz)
-    for m in range(4, n):
-        tmp[m] = y[m] + 0.5 * h * k2[m]
-    rhs_llvm_inlined(t + 0.5 * h, tmp, k3, model)
-    a3x, a3y, a3z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
-    # stage 4: θ = k3
-    ux, uy, uz = a3x, a3y, a3z
-    _stage_orientation(y, tmp, ux, uy, uz)
-    for m in range(4, n):
-        tmp[m] = y[m] + h * k3[m]
-    rhs_llvm_inlined(t_last, tmp, k4, model)
-    a4x, a4y, a4z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
-    # update
-    _stage_orientation(
-        y,
-        tmp,
-        (a1x + 2.0 * (a2x + a3x) + a4x) / 6.0,
-        (a1y + 2.0 * (a2y + a3y) + a4y) / 6.0,
-        (a1z + 2.0 * (a2z + a3z) + a4z) / 6.0,
-    )
-    y[0], y[1], y[2], y[3] = tmp[0], tmp[1], tmp[2], tmp[3]
-    for m in range(4, n):
-        y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
-
-
-class RKMK4(NamedTuple):
-    """The scheme of ``rkmk4_step`` (``rotlab.core.time_loop``)."""
-
-
-RKMK4.step = rkmk4_step
-
-
 @njit(cache=True)
 def rkmk4_advance(y, times, out, i_start, substeps, max_steps, model):
-    """``rotlab.core.time_loop.advance`` with RKMK4 steps (Λ on the group, never renormalised)."""
-    return advance(RKMK4(), y, times, out, i_start, substeps, max_steps, model)
+    """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, ``substeps`` RKMK4
+    steps per sample interval (contract of ``rotlab.core.rk4``, steps split at the load
+    breaks in the same way)."""
+    n = STATE_SIZE
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    tmp = np.empty(n)
+    steps = 0
+    i = i_start
+    breaks = model.breaks
+    b = count_at_or_below(breaks, times[i_start - 1])  # next breakpoint
+    while i < times.shape[0] and steps + substeps <= max_steps:
+        t0 = times[i - 1]
+        h_nominal = (times[i] - t0) / substeps
+        for j in range(substeps):
+            t = t0 + j * h_nominal
+            t_end = times[i] if j == substeps - 1 else t0 + (j + 1) * h_nominal
+            while t < t_end:  # one step, or its pieces between breakpoints (see rotlab.core.rk4)
+                end, t_last, b = next_piece(t, t_end, breaks, b)
+                h = end - t
+                # stage 1: θ = 0, dexp⁻¹ = identity
+                rhs_llvm_inlined(t, y, k1, model)
+                a1x, a1y, a1z = h * y[4], h * y[5], h * y[6]
+                # stage 2: θ = k1/2
+                ux, uy, uz = 0.5 * a1x, 0.5 * a1y, 0.5 * a1z
+                _stage_orientation(y, tmp, ux, uy, uz)
+                for m in range(4, n):
+                    tmp[m] = y[m] + 0.5 * h * k1[m]
+                rhs_llvm_inlined(t + 0.5 * h, tmp, k2, model)
+                a2x, a2y, a2z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
+                # stage 3: θ = k2/2
+                ux, uy, uz = 0.5 * a2x, 0.5 * a2y, 0.5 * a2z
+                _stage_orientation(y, tmp, ux, uy, uz)
+                for m in range(4, n):
+                    tmp[m] = y[m] + 0.5 * h * k2[m]
+                rhs_llvm_inlined(t + 0.5 * h, tmp, k3, model)
+                a3x, a3y, a3z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
+                # stage 4: θ = k3
+                ux, uy, uz = a3x, a3y, a3z
+                _stage_orientation(y, tmp, ux, uy, uz)
+                for m in range(4, n):
+                    tmp[m] = y[m] + h * k3[m]
+                rhs_llvm_inlined(t_last, tmp, k4, model)
+                a4x, a4y, a4z = _dexpinv(ux, uy, uz, h * tmp[4], h * tmp[5], h * tmp[6])
+                # update
+                _stage_orientation(
+                    y,
+                    tmp,
+                    (a1x + 2.0 * (a2x + a3x) + a4x) / 6.0,
+                    (a1y + 2.0 * (a2y + a3y) + a4y) / 6.0,
+                    (a1z + 2.0 * (a2z + a3z) + a4z) / 6.0,
+                )
+                y[0], y[1], y[2], y[3] = tmp[0], tmp[1], tmp[2], tmp[3]
+                for m in range(4, n):
+                    y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
+                steps += 1
+                t = end
+        if end_sample(y, out, i) != OK:
+            return NONFINITE, i, steps
+        i += 1
+    return OK, i, steps

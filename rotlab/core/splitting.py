@@ -46,7 +46,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.time_loop import NONFINITE, OK, end_sample
+from rotlab.core.kernel_status import NONFINITE, OK, end_sample
 from rotlab.core.torques import conservative_torque, has_forces
 
 

@@ -37,7 +37,7 @@ from numba import njit
 from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, store_row
 from rotlab.core.expressions import release_forced
 from rotlab.core.quaternion import N_PRODUCTS, cross_array, rotate_quadratic
-from rotlab.core.torques import load_series, nonconservative_series, series_workspace, switch_step
+from rotlab.core.torques import F_FORCE, F_POINT, load_series, nonconservative_series, series_workspace, switch_step
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -54,7 +54,7 @@ def force_map(forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     T = np.zeros((3, N_PRODUCTS))
     maps = _quadratic_maps()
     for row in forces:
-        arm, force = row[:3], row[3:]
+        arm, force = row[F_POINT:F_POINT + 3], row[F_FORCE:F_FORCE + 3]
         c0 += cross_array(arm, force)
         T += cross_array(arm, maps @ force).T
     return c0, T

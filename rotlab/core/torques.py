@@ -123,36 +123,36 @@ def _user_impl(t, y, user):
 def _forces_impl(y, forces):
     if isinstance(forces, types.NoneType):
         return lambda y, forces: (0.0, 0.0, 0.0)
-    return lambda y, forces: forces_torque(y, forces)
+    return forces_torque
 
 
 @overload(_terms, inline="always")
 def _terms_impl(t, y, terms):
     if isinstance(terms, types.NoneType):
         return lambda t, y, terms: (0.0, 0.0, 0.0)
-    return lambda t, y, terms: terms_torque(t, y, terms)
+    return terms_torque
 
 
 @overload(_tables, inline="always")
 def _tables_impl(t, y, tables, table_t, table_v):
     if isinstance(tables, types.NoneType):
         return lambda t, y, tables, table_t, table_v: (0.0, 0.0, 0.0)
-    return lambda t, y, tables, table_t, table_v: tables_torque(t, y, tables, table_t, table_v)
+    return tables_torque
 
 
 @overload(_damping, inline="always")
 def _damping_impl(y, damping):
     if isinstance(damping, types.NoneType):
         return lambda y, damping: (0.0, 0.0, 0.0)
-    return lambda y, damping: damping_torque(y, damping)
+    return damping_torque
 
 
-# The torque of each load group: typed once per process (their argument types do not depend on
-# the scene) and cached on disk, then inlined by LLVM (``forceinline``) into every kernel and the
-# recording's load view, which call them through the overloads above.
+# The torque of each load group, written once.  The kernels inline each body through the overloads
+# above (numba inlines it where the kernel is typed: the fastest steps, every load in registers);
+# the recording's load view and the bench's peers call it compiled apart (``_called``: argument
+# types that do not depend on the scene, so each is compiled once and cached on disk).
 
 
-@njit(cache=True, forceinline=True)
 def forces_torque(y, forces):
     """Σ_k p_k × (Rᵀ F_k): constant space-frame forces F (columns F_FORCE) at body points p
     (columns F_POINT)."""
@@ -166,7 +166,6 @@ def forces_torque(y, forces):
     return cx, cy, cz
 
 
-@njit(cache=True, forceinline=True)
 def terms_torque(t, y, terms):
     """Σ over terms acting at t (on ≤ t < off) of offset + amplitude · sin(w t + φ), body
     components (Rᵀ M for a space-frame term)."""
@@ -186,7 +185,6 @@ def terms_torque(t, y, terms):
     return nx, ny, nz
 
 
-@njit(cache=True, forceinline=True)
 def tables_torque(t, y, tables, table_t, table_v):
     """Σ over tables acting at t of the piecewise-linear M(t) (``table_value``), body components."""
     nx = ny = nz = 0.0
@@ -200,7 +198,6 @@ def tables_torque(t, y, tables, table_t, table_v):
     return nx, ny, nz
 
 
-@njit(cache=True, forceinline=True)
 def damping_torque(y, damping):
     """−k ω."""
     return -damping * y[P0], -damping * y[P0 + 1], -damping * y[P0 + 2]
@@ -316,8 +313,8 @@ def expression_output(y, rows, k, axes, vx, vy, vz):
 def expression_torque(t, y, rows, fn, axes, axes_q, moments):
     """Σ over expression loads active at t of their torque, principal body frame; ``fn`` the
     address of the scene's compiled formulas (``rotlab.scene.formulas``).  Called, not inlined
-    into ``rhs``: inlined, it was typed at every call site (``dop853`` with ``pd_control``
-    compiled in 63 s, now 9 s; its steps cost ~15–20% more)."""
+    into ``rhs``: inlined, it would be typed again at every call site, and the formula loads'
+    typing is the largest of all."""
     nx = ny = nz = 0.0
     for k in range(rows.shape[0]):
         if not (rows[k, EX_ON] <= t < rows[k, EX_OFF]):
@@ -333,13 +330,42 @@ def expression_torque(t, y, rows, fn, axes, axes_q, moments):
     return nx, ny, nz
 
 
+_forces_called = njit(cache=True)(forces_torque)
+_terms_called = njit(cache=True)(terms_torque)
+_tables_called = njit(cache=True)(tables_torque)
+_damping_called = njit(cache=True)(damping_torque)
+
+
 @njit(cache=True)
 def torque_at(t, y, model):
-    """The torque of all of ``model``'s loads at (t, y), body components: the kernels' torque,
-    called from Python (the bench's peers) and by ``torque_samples``."""
-    cx, cy, cz = conservative_torque(y, model)
-    nx, ny, nz = nonconservative_torque(t, y, model)
-    return cx + nx, cy + ny, cz + nz
+    """The torque of all of ``model``'s loads at (t, y), body components: each group's torque as
+    the kernels compute it, called (the bench's peers call this from Python, and
+    ``torque_samples`` for the recording's load views)."""
+    return _called_torque(t, y, model.forces, model.terms, model.tables, model.table_t, model.table_v, model.damping,
+                          model.expressions, model.user)
+
+
+@njit(cache=True)
+def _called_torque(t, y, forces, terms, tables, table_t, table_v, damping, ex, user):
+    """Σ of the present groups' torques (an absent group is None: its branch is pruned)."""
+    mx = my = mz = 0.0
+    if forces is not None:
+        ax, ay, az = _forces_called(y, forces)
+        mx, my, mz = mx + ax, my + ay, mz + az
+    if terms is not None:
+        ax, ay, az = _terms_called(t, y, terms)
+        mx, my, mz = mx + ax, my + ay, mz + az
+    if tables is not None:
+        ax, ay, az = _tables_called(t, y, tables, table_t, table_v)
+        mx, my, mz = mx + ax, my + ay, mz + az
+    if damping is not None:
+        ax, ay, az = _damping_called(y, damping)
+        mx, my, mz = mx + ax, my + ay, mz + az
+    if ex is not None:
+        ax, ay, az = expression_torque(t, y, ex.rows, ex.fn, ex.axes, ex.axes_q, ex.moments)
+        mx, my, mz = mx + ax, my + ay, mz + az
+    ax, ay, az = _user(t, y, user)
+    return mx + ax, my + ay, mz + az
 
 
 @njit(cache=True)
@@ -358,9 +384,7 @@ def torque_samples(t, q, w, model, out):
 # ``nonconservative_series``, ``switch_step`` and ``series_workspace`` are called, not inlined, and
 # ``load_series`` is a one-line overload around the compiled ``_time_series`` (one function for
 # the terms and the tables, whose absent group numba prunes as a None argument): numba types an
-# inlined overload again in its caller, and the inlined series cost general.toml's cold taylor
-# compile 2.1 s (5.6 -> 3.5 s); called, a step costs the same (general.toml 1.61 µs,
-# lagrange.toml 0.75 µs, pd_drag 22 µs a step, same-run A/B, results bit-identical).
+# inlined overload again in its caller, and called, a step costs the same.
 
 
 def load_series(t, order, model, body, space):

@@ -35,18 +35,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-CONSTANTS = {  # python benchmarks/fit_cost_model.py, 2026-11-23, 1-min load 1.56 (2 cores shared by other jobs)
+CONSTANTS = {  # printed by python benchmarks/fit_cost_model.py
     "exact_asymmetric": {"per_call": 0.00109, "per_sample": 9.28e-07},
     "exact_axisymmetric": {"per_call": 0.000473, "per_sample": 4.06e-07},
     "exact_lagrange": {"per_call": 0.0024, "per_sample": 1.71e-06},
-    # dmv refitted 2026-11-25 (``dmv_costs`` alone, 1-min load 0.5) after its step became a Newton solve
     "dmv": {"per_call": 6.9e-06, "per_step_a": 5.06e-08, "per_step_b": 1.19e-08, "per_sample": 4.71e-08},
     "splitting-2": {"free": 5.64e-08, "forces": 9.35e-08, "per_call": 6.4e-06, "per_sample": 2.94e-08},
     "splitting-4": {"free": 2.82e-07, "forces": 4.47e-07, "per_call": 6.42e-06, "per_sample": 3.14e-08},
     "splitting-6": {"free": 8.86e-07, "forces": 8.02e-07, "per_call": 6.73e-06, "per_sample": 1.86e-08},
     "splitting-8": {"free": 9.56e-07, "forces": 1.53e-06, "per_call": 7.05e-06, "per_sample": 2.91e-08},
     "rk4": {"free": 4.09e-08, "forces": 9.06e-08, "loads": 2.61e-07, "per_call": 6.18e-06, "per_sample": 6.72e-09},
-    # taylor refitted 2026-11-25 (``taylor_costs`` alone, 1-min load 0.7) after a lone force went through γ = Rᵀ F
     "taylor": {"free": {"a": 1.71e-07, "b": 1.55e-09}, "forces": {"a": 2.12e-07, "b": 2.21e-09}, "loads": {"a": 3.4e-07, "b": 5.22e-09},
                "per_sample": 3.37e-08, "per_call": 8.78e-06},
     "error_constants": {"dmv-8": 8.4e-06, "dmv-10": 2.53e-07, "dmv-12": 7.36e-09, "splitting-2": 0.0152, "splitting-4": 0.000738,
@@ -55,7 +53,7 @@ CONSTANTS = {  # python benchmarks/fit_cost_model.py, 2026-11-23, 1-min load 1.5
     "taylor_order": 13,
 }
 
-PROBE_PYTHON = 2.5e-5  # s: a tolerance probe's Python work (rk4 on a free body: 30 µs, of which 120 steps are 5 µs)
+PROBE_PYTHON = 2.5e-5  # s: a tolerance probe's Python work around its 120 steps
 UNIT_ROUNDOFF = 2.0**-53
 SEPARATRIX_FACTOR = 8.0  # F of the error floor (module docstring)
 EXACT_ERROR = 1e-13  # the exact solutions' error bound in the tests (vs mpmath, 40 digits): ≤ 1e-12 near the separatrix, 1e-15-ish elsewhere

@@ -1,13 +1,12 @@
 """Each applied load as the viewer shows it: an arrow at its point of application (space frame)
 and its torque over time, from the scene's own load model.
 
-For load i alone, the torque is the one the kernels integrate: ``core.torques`` applied to the
-model of a scenario holding load i only (body, principal frame),
-    M_i = conservative_torque(y, model_i) + nonconservative_torque(t, y, model_i),
-evaluated by the compiled ``core.torques.torque_samples``.  model_i has the numba type of the scene's model
-(``Rigid.each_load``), so one specialisation serves every load of a scene.  How each kind is drawn is its declaration's
-``arrow`` (``rotlab.scene.load_kinds``): a force F at body point p as F (space frame) starting at
-R p, gravity as m g at R r_c, every other load as its torque M (space frame) at the fixed point.
+For load i alone, the torque is the one the kernels integrate (``core.torques``, body, principal
+frame), evaluated by the compiled ``core.torques.torque_samples`` with a model of load i alone of
+the scene model's numba type (``Rigid.each_load``): one specialisation serves every load of a
+scene.  How each kind is drawn is its declaration's ``arrow``
+(``rotlab.scene.load_kinds``): a force F at body point p as F (space frame) starting at R p,
+gravity as m g at R r_c, every other load as its torque M (space frame) at the fixed point.
 """
 
 from __future__ import annotations

@@ -78,9 +78,10 @@ class Model(NamedTuple):
 
 
 def build_model(loads: LoadArrays, moments: np.ndarray, like: Model | None = None) -> Model:
-    """The kernels' view of ``loads``: absent groups as None, or, with ``like``, present (empty)
-    wherever ``like`` has them, so that the model has ``like``'s numba type (the recording's view
-    of one load evaluates it with the kernel already compiled for the whole scene)."""
+    """The kernels' view of ``loads``: absent groups as None, so that a kernel specialises on the
+    groups a scene has; with ``like``, the groups ``like`` has are present (empty where ``loads``
+    has none) and the others None, so that the model has ``like``'s numba type (one load of a
+    scene, evaluated by the specialisation compiled for the scene's model)."""
     has = (lambda group, present: present) if like is None else (lambda group, present: getattr(like, group) is not None)
     has_tables = has("tables", len(loads.tables) > 0)
     expressions = loads.expressions

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from rotlab.core import dop853 as kernel
 from rotlab.methods.base import ADAPTIVE, ProgressCallback, Settings, Solution
 from rotlab.methods.cost import Estimate, Work
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
@@ -34,6 +33,8 @@ class DOP853:
         return settings
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+        from rotlab.core import dop853 as kernel  # (its coefficients come from scipy.integrate: imported when it runs, not when auto weighs it)
+
         y = initial_state(scene)
         model = scene.model
         counters = np.zeros(3, dtype=np.int64)

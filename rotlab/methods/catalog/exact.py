@@ -13,8 +13,6 @@ from __future__ import annotations
 import numpy as np
 
 from rotlab.core import quaternion as quat
-from rotlab.core.exact.lagrange import lagrange_top_solution  # (imports scipy.special: at selection, not in the timed solve)
-from rotlab.core.exact.torque_free import torque_free_solution
 from rotlab.core.torques import F_FORCE, F_POINT
 from rotlab.methods.base import NO_STEPS, ProgressCallback, Settings, Solution
 from rotlab.methods.cost import Estimate, Work, exact_estimate
@@ -50,6 +48,8 @@ class Exact:
         return settings
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+        from rotlab.core.exact.torque_free import torque_free_solution  # (scipy.special: imported when it runs, not when auto weighs it)
+
         t0 = float(t[0])
 
         def evaluate(times: np.ndarray) -> np.ndarray:
@@ -77,6 +77,8 @@ def _closed_form(scene: Scene) -> str:
 
 
 def _lagrange(scene: Scene, t0: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    from rotlab.core.exact.lagrange import lagrange_top_solution
+
     (row,) = active_forces(scene.loads)
     arm, force = row[F_POINT:F_POINT + 3], row[F_FORCE:F_FORCE + 3]
     axis = scene.symmetry_axis

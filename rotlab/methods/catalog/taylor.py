@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from rotlab.core import taylor as kernel
-from rotlab.core.torques import T_FRAME, TB_FRAME
+from rotlab.core.torques import F_FORCE, F_POINT, T_FRAME, TB_FRAME
 from rotlab.errors import InputError
 from rotlab.methods.base import ADAPTIVE, ProgressCallback, Settings, Solution
 from rotlab.methods.cost import Estimate, Work, taylor_estimate
@@ -110,7 +110,7 @@ def lone_force(scene: Scene) -> np.ndarray | None:
 def _lone_force(loads, forces: np.ndarray, has_space: bool) -> np.ndarray | None:
     if len(forces) != 1 or has_space or loads.expressions is not None:
         return None
-    return np.array(forces[0].reshape(2, 3))
+    return np.array([forces[0, F_POINT:F_POINT + 3], forces[0, F_FORCE:F_FORCE + 3]])
 
 
 def _has_space(loads) -> bool:

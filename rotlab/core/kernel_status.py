@@ -1,0 +1,25 @@
+"""What the fixed-step kernels share: their status codes and the end of a sample interval
+(``end_sample``: the state stored, or NONFINITE).
+
+Each kernel keeps its own time loop.  A loop written once around a per-method step (a scheme
+class whose step numba inlines, ``rk4`` and ``rkmk4`` sharing it) gave the same steps, bit for
+bit, but made a step on a scene with loads 30–70% slower (configs/general.toml, ``rk4``; its
+machine code keeps more calls out of line than the kernel's own loop).
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from rotlab.core.dynamics import all_finite, store_row
+
+OK, NONFINITE = 0, 1  # a kernel's status
+
+
+@njit(cache=True, forceinline=True)
+def end_sample(y, out, i):
+    """out[i] ← y when every component is finite (OK), else NONFINITE (out[i] untouched)."""
+    if not all_finite(y):
+        return NONFINITE
+    store_row(out, i, y)
+    return OK
