@@ -211,13 +211,15 @@ def _rotlab_runner(method, scene, t, settings_of):
 
 def _auto_runner(scene, t):
     """``auto`` as a user runs it: ``choose_method`` and the solve, both timed.  The untimed
-    warm-up call makes the choice; the timed calls find it in choose's cache, as a loop over
-    ``rotlab.simulate`` does (the cost of a fresh choice is in the ``overhead`` section)."""
+    warm-up call makes the choice; the timed calls find it in the API's cache of choices, as a loop
+    over ``rotlab.simulate`` does (the cost of a fresh choice is in the ``overhead`` section)."""
+    from rotlab.api import CHOICES
     from rotlab.methods.base import Settings
     from rotlab.methods.choose import choose_method
 
     def run(setting: dict[str, Any]):
-        method, why, settings = choose_method(scene, "auto", Settings(rtol=setting["rtol"], atol=setting["rtol"] * 1e-2, max_steps=10**10), t)
+        settings = Settings(rtol=setting["rtol"], atol=setting["rtol"] * 1e-2, max_steps=10**10)
+        method, why, settings = choose_method(scene, "auto", settings, t, CHOICES)
         solution = method.solve(scene, t, settings, None)
         state = solution.state[:, :7] if solution.valid == t.shape[0] else np.full((t.shape[0], 7), np.nan)
         chosen = why.split(",")[0].removeprefix("auto: ")
