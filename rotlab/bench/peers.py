@@ -7,7 +7,7 @@ work W):
     ṗ = (B − C)/A · q r + M1/A,  q̇ = (C − A)/B · r p + M2/B,  ṙ = (A − B)/C · p q + M3/C
 
 with the torque M of the scene's loads from rotlab's own compiled torque (``rotlab.core.torques.
-torque_at``, every load kind), as a user who compiles the torque and writes the rest would do.
+groups_torque``, every load kind), as a user who compiles the torque and writes the rest would do.
 The rest of the right-hand side is plain Python on floats (``y.tolist()`` first): on 7 components
 that is faster than NumPy vector operations, so the peers get the quickest right-hand side a
 Python user would reasonably write, and the ratios are lower bounds.
@@ -49,12 +49,13 @@ class PeerSolution:
 
 def make_rhs(scene: Scene) -> Callable[[float, np.ndarray], np.ndarray]:
     """f(t, y) → ẏ for the 7-component state of ``scene`` (principal frame): Euler and Poisson in
-    plain Python, the loads' torque compiled (``torque_at``; not called for a torque-free body)."""
+    plain Python, the loads' torque compiled (``groups_torque``; not called for a torque-free body)."""
     from rotlab.core.state import STATE_SIZE
-    from rotlab.core.torques import torque_at
+    from rotlab.core.torques import groups_torque
 
     ea, eb, ec, ia, ib, ic = scene.model.euler.tolist()
-    model = scene.model
+    m = scene.model
+    groups = (m.forces, m.terms, m.tables, m.table_t, m.table_v, m.damping, m.expressions, m.user)
     free = not scene.scenario.loads and scene.loads.user is None
     y8 = np.zeros(STATE_SIZE)
 
@@ -63,7 +64,7 @@ def make_rhs(scene: Scene) -> Callable[[float, np.ndarray], np.ndarray]:
         mx = my = mz = 0.0
         if not free:
             y8[:7] = y
-            mx, my, mz = torque_at(t, y8, model)
+            mx, my, mz = groups_torque(t, y8, *groups)
         return np.array([
             -0.5 * (q1 * p + q2 * q + q3 * r),
             0.5 * (q0 * p + q2 * r - q3 * q),

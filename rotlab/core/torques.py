@@ -341,13 +341,14 @@ def torque_at(t, y, model):
     """The torque of all of ``model``'s loads at (t, y), body components: each group's torque as
     the kernels compute it, called (the bench's peers call this from Python, and
     ``torque_samples`` for the recording's load views)."""
-    return _called_torque(t, y, model.forces, model.terms, model.tables, model.table_t, model.table_v, model.damping,
+    return groups_torque(t, y, model.forces, model.terms, model.tables, model.table_t, model.table_v, model.damping,
                           model.expressions, model.user)
 
 
 @njit(cache=True)
-def _called_torque(t, y, forces, terms, tables, table_t, table_v, damping, ex, user):
-    """Σ of the present groups' torques (an absent group is None: its branch is pruned)."""
+def groups_torque(t, y, forces, terms, tables, table_t, table_v, damping, ex, user):
+    """Σ of the present groups' torques (an absent group is None: its branch is pruned): the
+    model's fields one by one, so that a call from Python unboxes only these (the bench's peers)."""
     mx = my = mz = 0.0
     if forces is not None:
         ax, ay, az = _forces_called(y, forces)
