@@ -73,6 +73,24 @@ def test_snapshot_renders_the_viewer(cli, tmp_path, euler):
     assert not leftover.stdout.strip(), "the headless viewer outlived the snapshot"
 
 
+@pytest.mark.skipif(not _has_vulkan(), reason="no Vulkan driver: install mesa-vulkan-drivers libvulkan1 (CI does)")
+@pytest.mark.parametrize("config, args", [
+    ("general.toml", ["--set", "time.end=200"]),  # 40,001 samples
+    ("lagrange.toml", ["--method", "taylor", "--duration", "100", "--set", "time.sample_rate=400"]),  # 40,001, gravity, stepping
+])
+def test_a_long_run_with_loads_opens_in_the_viewer(cli, tmp_path, config, args):
+    """Rerun 0.41's viewer panicked on these files (exit 102, "transport error" from `snapshot`):
+    a visual chunk with no sample where the loads are evaluated sent an empty load-arrow chunk,
+    whose time range is the whole timeline.  The sink sends no empty chunk."""
+    from PIL import Image
+
+    result = cli("run", str(CONFIGS / config), "-o", "long.rrd", "-q", *args)
+    assert result.exit_code == 0, result.stderr
+    result = cli("snapshot", "long.rrd", "-o", "long.png", "--size", "960x540")
+    assert result.exit_code == 0, result.stderr
+    assert np.asarray(Image.open(tmp_path / "long.png").convert("L"), dtype=float).std() > 10.0
+
+
 def test_snapshot_refuses_bad_input(cli, tmp_path, euler):
     write_recording(euler, tmp_path / "e.rrd")
     result = cli("snapshot", "e.rrd", "--time", "99")

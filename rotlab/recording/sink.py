@@ -245,7 +245,8 @@ class _LiveFeed(threading.Thread):
 
 
 class _Tee:
-    """Logs to the file's stream (directly) and the live viewers' (through their feed)."""
+    """Logs to the file's stream (directly) and the live viewers' (through their feed), either
+    of which may be absent."""
 
     def __init__(self, file_rec: rr.RecordingStream | None, feed: _LiveFeed | None) -> None:
         self.file_rec, self.feed = file_rec, feed
@@ -253,8 +254,13 @@ class _Tee:
     def log(self, *args, **kwargs) -> None:
         self._both("log", args, kwargs)
 
-    def send_columns(self, *args, **kwargs) -> None:
-        self._both("send_columns", args, kwargs)
+    def send_columns(self, entity_path: str, indexes: list, columns: object, **kwargs) -> None:
+        """Rerun's ``send_columns`` on both streams; a chunk with no rows is not sent: its time
+        range is the whole timeline, and Rerun 0.41's viewer panics drawing its time panel
+        (``AbsoluteTimeRange { min: TimeInt::MIN, max: TimeInt::MAX }``: the file does not open)."""
+        if any(len(index.as_arrow_array()) == 0 for index in indexes):
+            return
+        self._both("send_columns", (entity_path, indexes, columns), kwargs)
 
     def send_blueprint(self, *args, **kwargs) -> None:
         self._both("send_blueprint", args, kwargs)
@@ -292,7 +298,7 @@ class RecordingSink:
             self._live_rec = rr.RecordingStream(application_id, recording_id=self.recording_id)
             self._live_rec.set_log_time_enabled(False)
             self._feed = _LiveFeed(self._live_rec)
-        self.rec = self._file_rec if self._feed is None else _Tee(self._file_rec, self._feed)
+        self.rec = _Tee(self._file_rec, self._feed)
         self.tmp: Path | None = None
         self._pump: _Pump | None = None
         self._write_fd: int | None = None
@@ -363,8 +369,7 @@ class RecordingSink:
     def update_blueprint(self, blueprint: rrb.Blueprint) -> None:
         """Replace the default layout (the final one, from the whole run: plot ranges that the
         first chunk alone could not know) in the file and in live viewers."""
-        if self.rec is not None:
-            self.rec.send_blueprint(blueprint, make_active=True, make_default=True)
+        self.rec.send_blueprint(blueprint, make_active=True, make_default=True)
 
     def drain(self) -> None:
         """Wait until Rerun has encoded what was sent to the file and the pump has taken it:
