@@ -36,3 +36,22 @@ def test_plot_ranges_cover_the_whole_streamed_run(cli, tmp_path):
     ranges = _ranges(tmp_path / "g.rrd", "M of the loads, body frame (N·m)")
     assert ranges, "no y range for the body-frame torque plot"
     assert any(lo <= low and hi >= high for lo, hi in ranges), (low, high, ranges)
+
+
+def test_the_final_layout_of_a_top_keeps_its_nutation_plots(cli, tmp_path, monkeypatch):
+    """The layout is sent again when the run ends, built from the run's thinned samples; those
+    carried no Euler angles, so a heavy top's final layout lost its θ, ψ and spin-rate plots."""
+    from rotlab.recording import writer
+
+    built = []
+    original = writer.run_blueprint
+
+    def recording(traj, views):
+        built.append(set(views.series))
+        return original(traj, views)
+
+    monkeypatch.setattr(writer, "run_blueprint", recording)
+    result = cli("run", str(CONFIGS / "lagrange.toml"), "-q", "-o", "l.rrd", "--set", "time.sample_rate=4000")  # 40,001 samples: thinned
+    assert result.exit_code == 0, result.output
+    assert len(built) == 2  # the first chunk's layout, then the whole run's
+    assert all({layout.EULER_THETA, layout.EULER_PSI, layout.EULER_SPIN_RATE} <= series for series in built)

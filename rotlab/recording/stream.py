@@ -92,7 +92,9 @@ class ChunkStream:
         started = self._started()
         summary = self.summary()
         t, state = self.thinned.arrays()
-        thinned = build_chunk(self.scene, self.stats, t, state, self.reference, False, None) if t.shape[0] else None
+        # with its Euler angles when the run has them: the final layout is built from these samples,
+        # and without them it had no θ, ψ or spin-rate plot (a heavy top's nutation)
+        thinned = build_chunk(self.scene, self.stats, t, state, self.reference, self.euler_angles, None) if t.shape[0] else None
         self.writer.finish(summary, thinned)
         self._stopped(started)
         return summary
