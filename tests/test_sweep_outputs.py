@@ -89,3 +89,16 @@ def test_snapshot_renders_a_sweep_recording(cli, write, tmp_path):
     assert result.exit_code == 0, result.output
     pixels = np.asarray(Image.open(tmp_path / "sweep.png").convert("L"), dtype=float)
     assert pixels.std() > 10.0
+
+
+def test_the_comparison_recording_spans_every_cases_whole_run(cli, write, tmp_path):
+    """The comparison keeps every k-th sample of a long case (at most ~2,000) and its last: it
+    ended one stride early (8 s at 500 Hz: 7.994 s), so `snapshot --time 8` was refused."""
+    from rotlab.recording.reader import read_series
+
+    text = ENSEMBLE_SWEEP.replace("sample_rate = 50", "sample_rate = 500")
+    assert cli("sweep", str(write("long.toml", text)), "-o", "out").exit_code == 0
+    for k in range(4):
+        t, omega = read_series(tmp_path / "out" / "long_sweep.rrd", f"/compare/omega_y/case_{k}")
+        assert t[0] == 0.0 and t[-1] == pytest.approx(8.0, abs=1e-9) and 1000 <= t.shape[0] <= 2001
+        assert np.all(np.diff(t) > 0) and np.all(np.isfinite(omega))

@@ -100,8 +100,9 @@ def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOu
     found = observables(stacked, period)
     drift = stacked.max_drift()
     energy = stacked.drifts["energy"]
-    stride = max(1, math.ceil(stacked.t.shape[0] / COMPARISON_SAMPLES))
-    t = stacked.t[::stride]
+    n = stacked.t.shape[0]
+    shown = np.unique(np.r_[np.arange(0, n, max(1, math.ceil(n / COMPARISON_SAMPLES))), n - 1]) if n else np.zeros(0, dtype=int)
+    t = stacked.t[shown]  # every k-th sample and the last: the comparison spans the whole run
     outcomes = []
     for b, (case, traj, seconds) in enumerate(runs):
         case_drift = {name: float(values[b]) for name, values in drift.items()}
@@ -119,8 +120,8 @@ def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOu
             message="; ".join(c.message for c in failed),
             observables={name: float(values[b]) for name, values in found.items()},
             t=t,
-            omega=stacked.omega[b, ::stride],
-            energy_drift=energy[b, ::stride],
+            omega=stacked.omega[b, shown],
+            energy_drift=energy[b, shown],
         ))
     return outcomes
 
