@@ -251,7 +251,11 @@ def test_quick_command_on_one_problem(tmp_path):
         plots = False
     result = CliRunner().invoke(app, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
-    assert "speed-up at max error ≤ 1e-10" in result.stdout
+    first_table = result.stdout.split("==", 1)[1]
+    assert first_table.startswith(" rotlab at max error ≤ 1e-10") and "krogh" in first_table.split("\n\n")[0]  # the headline first
+    assert "speed-up at max error" not in result.stdout and "h=" not in result.stderr  # details on request only
+    detailed = CliRunner().invoke(app, args[:-2] + ["--details"] if plots else args + ["--details"], catch_exceptions=False)
+    assert "speed-up at max error ≤ 1e-10" in detailed.stdout and "== krogh" in detailed.stdout
     items = json.loads(out.read_text())
     wp = [x for x in items if x["kind"] == "work-precision"]
     assert wp and all(all(k in x for k in REQUIRED) for x in wp)

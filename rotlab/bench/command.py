@@ -18,11 +18,13 @@ def bench(
     repeats: Annotated[Optional[int], typer.Option("--repeats", min=1, help="Repeats per timing (median); default 5, 3 with --quick.")] = None,
     problem: Annotated[Optional[list[str]], typer.Option("--problem", "-p", help="Only these problems (repeat the option); default all.")] = None,
     only: Annotated[Optional[str], typer.Option("--only", help=f"Comma-separated sections: {', '.join(SECTIONS)} (default all).")] = None,
+    details: Annotated[bool, typer.Option("--details", help="Also print every run as it is timed, each problem's work-precision table and the full speed-up tables.")] = False,
 ) -> None:
     """Benchmark rotlab against scipy solve_ivp and the seeds' RK4: work-precision on the test
     problems (with `auto` as its own row, and the lead over rotlab's dop853), throughput, the
     per-call overhead of rotlab.simulate, `rotlab run` cold/warm wall time against the import of
-    its dependencies, long-run energy error."""
+    its dependencies, long-run energy error.  A headline table comes first; ``--details`` prints
+    the rest."""
     import time
 
     from rotlab.bench import report, runner
@@ -45,30 +47,36 @@ def bench(
             typer.echo("rotlab: error: --plots needs matplotlib, which is not a rotlab dependency: pip install matplotlib (or pip install 'rotlab[plots]')", err=True)
             raise typer.Exit(2)
 
-    options = runner.Options.make(quick, repeats, log=lambda line: typer.echo(line, err=True))
+    options = runner.Options.make(quick, repeats, log=(lambda line: typer.echo(line, err=True)) if details else (lambda line: None))
     started = time.perf_counter()
     typer.echo(f"rotlab bench ({'quick' if quick else 'full'}, repeats {options.repeats}); 1-min load average at start: {_load()}")
     records: list[runner.Record] = []
     extra: list[dict] = []
     titles = {}
+    detail_tables: list[str] = []
     if problems:
         runner.warm_up_peers()
     for p in problems:
+        began = time.perf_counter()
         recs, ref = runner.run_problem(p, options)
         records.extend(recs)
         titles[p.name] = p.title
-        typer.echo(report.work_precision_table(recs, p.name, p.title, ref.how + (f"; check vs {ref.check_how}: {ref.check:.2g}" if ref.check is not None else "")))
-        typer.echo("")
+        detail_tables.append(report.work_precision_table(recs, p.name, p.title, ref.how + (f"; check vs {ref.check_how}: {ref.check:.2g}" if ref.check is not None else "")))
+        if not details:
+            typer.echo(f"   {p.name}: {len(recs)} runs timed in {time.perf_counter() - began:.1f} s", err=True)
     if records:
-        for threshold in (runner.THRESHOLD, 1e-8):
-            ratio_rows = runner.ratios(records, threshold)
-            extra.extend(ratio_rows)
-            typer.echo(report.ratio_table(ratio_rows))
-            typer.echo("")
+        ratio_rows = {threshold: runner.ratios(records, threshold) for threshold in (runner.THRESHOLD, 1e-8)}
         lead_rows = runner.leads(records)
+        extra.extend(row for rows in ratio_rows.values() for row in rows)
         extra.extend(lead_rows)
+        typer.echo(report.headline_table(ratio_rows[runner.THRESHOLD], lead_rows))
+        typer.echo("")
         typer.echo(report.lead_table(lead_rows))
         typer.echo("")
+        if details:
+            for table in [*detail_tables, *(report.ratio_table(rows) for rows in ratio_rows.values())]:
+                typer.echo(table)
+                typer.echo("")
     if "throughput" in sections:
         rows = runner.kernel_throughput(options)
         recording = runner.recording_throughput(options)

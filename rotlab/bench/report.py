@@ -79,6 +79,25 @@ def ratio_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def headline_table(ratio_rows: list[dict[str, Any]], lead_rows: list[dict[str, Any]]) -> str:
+    """One line per problem at one threshold: rotlab's fastest run reaching it, and how many times
+    faster it is than scipy's fastest and than rotlab's own dop853 (a compiled DOP853); ``auto``'s
+    time and its lead over dop853.  Measured ratios (``ratio_table``, ``lead_table``: the details)."""
+    if not ratio_rows:
+        return ""
+    threshold = ratio_rows[0]["threshold"]
+    leads = {r["problem"]: r for r in lead_rows if r["threshold"] == threshold}
+    lines = [f"== rotlab at max error ≤ {threshold:g}: its fastest run reaching it, and the other's time / rotlab's",
+             f"   {'problem':20} {'rotlab best':>36}  {'vs scipy best':>13}  {'vs dop853':>9}  {'auto':>9}  {'auto vs dop853':>14}"]
+    for row in ratio_rows:
+        lead = leads.get(row["problem"], {})
+        vs_scipy = "—" if row.get("rotlab_vs_scipy") is None else f"{row['rotlab_vs_scipy']:,.0f}×"
+        vs_dop = "—" if lead.get("lead_best") is None else f"{lead['lead_best']:.2f}×"
+        auto_lead = "—" if lead.get("lead_auto") is None else f"{lead['lead_auto']:.2f}×"
+        lines.append(f"   {row['problem']:20} {_short(row['rotlab']):>36}  {vs_scipy:>13}  {vs_dop:>9}  {_short(row['auto'], False):>9}  {auto_lead:>14}")
+    return "\n".join(lines)
+
+
 def lead_table(rows: list[dict[str, Any]]) -> str:
     """rotlab's best other method and ``auto`` against rotlab's own dop853 at each threshold."""
     if not rows:
