@@ -154,6 +154,12 @@ class Trajectory:
         return (f"<Trajectory {self.scene.kind.replace('_', '-')} scene, {n:,} samples over {span}, "
                 f"method {self.stats.method}, max drift {drift or 'none'}; {state}>")
 
+    def _repr_html_(self) -> str:
+        """A notebook's view of the run: a summary table and small plots (``rotlab.notebook``)."""
+        from rotlab.notebook import trajectory_html
+
+        return trajectory_html(self)
+
     def columns(self) -> dict[str, tuple[np.ndarray, str]]:
         """Every series as a named column: name → (values, unit).  Vectors name their frame."""
         out: dict[str, tuple[np.ndarray, str]] = {"t": (self.t, "s")}
