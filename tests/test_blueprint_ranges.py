@@ -4,6 +4,7 @@ sent again, as the default, when the run ends: a torque peak late in the run sta
 from __future__ import annotations
 
 import numpy as np
+import rerun as rr
 from rerun.chunk import RrdReader
 
 from rotlab.recording import layout
@@ -55,3 +56,27 @@ def test_the_final_layout_of_a_top_keeps_its_nutation_plots(cli, tmp_path, monke
     assert result.exit_code == 0, result.output
     assert len(built) == 2  # the first chunk's layout, then the whole run's
     assert all({layout.EULER_THETA, layout.EULER_PSI, layout.EULER_SPIN_RATE} <= series for series in built)
+
+
+def test_the_plots_show_the_whole_run_and_the_band_of_a_fast_motion(cli, tmp_path):
+    """A long run's plots opened centred on the time cursor, half empty, the start off-screen: the
+    time axis of every plot now spans the run (start to end); and a motion faster than a pixel
+    (a top's nutation over 100 s) is drawn as the band it sweeps (min-max per pixel), not as its
+    mean, which was a flat line."""
+    result = cli("run", str(CONFIGS / "lagrange.toml"), "-q", "-o", "l.rrd", "--duration", "100", "--set", "time.sample_rate=50")
+    assert result.exit_code == 0, result.output
+    reader = RrdReader(str(tmp_path / "l.rrd"))
+    spans = []
+    for store in reader.blueprints():
+        for chunk in reader.stream(store=store).to_chunks():
+            batch = chunk.to_record_batch()
+            if "TimeAxis:view_range" in batch.schema.names:
+                spans.append(batch.column("TimeAxis:view_range").to_pylist()[-1])
+    assert spans and all(span == [{"start": 0, "end": 100_000_000_000}] for span in spans), spans[:2]  # absolute, 0 to 100 s (ns)
+    policies = []
+    for chunk in reader.stream().filter(content="/euler/theta", is_static=True).to_chunks():
+        batch = chunk.to_record_batch()
+        if "SeriesLines:aggregation_policy" in batch.schema.names:
+            policies += batch.column("SeriesLines:aggregation_policy").to_pylist()
+    minmax = rr.components.AggregationPolicy.MinMax.value
+    assert policies and all(p == [minmax] for p in policies), policies

@@ -111,18 +111,19 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
 
 
 def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None, active: str = MOTION,
-              eye: tuple[np.ndarray, np.ndarray] | None = None) -> rrb.Blueprint:
+              eye: tuple[np.ndarray, np.ndarray] | None = None, span: tuple[float, float] | None = None) -> rrb.Blueprint:
     """The default layout: the 3D view (and the run panel as a tab) on the left, on the right the
     plots in tabs (``groups``), each a two-column grid; ``active`` is the tab shown first; ``eye``
     (position, look target) the 3D view's default camera (the one labels are laid out for).  Trails show the last ``trail_seconds`` before the time cursor
-    (the whole paths stay, dimmed); legends sit in the top-right corner, above the data."""
+    (the whole paths stay, dimmed); legends sit in the top-right corner, above the data; the plots'
+    time axis shows ``span`` (s: the whole run, not a window around the time cursor)."""
     overrides = {}
     if trail_seconds is not None:
         window = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.cursor_relative(seconds=-trail_seconds),
                                       end=rrb.TimeRangeBoundary.cursor_relative())
         overrides = {trail: rrb.VisibleTimeRanges([window]) for trail in TRAILS}
     names = [name for name, plot_list in groups.items() if plot_list]
-    tabs = [rrb.Grid(*[_view(p) for p in groups[name]], grid_columns=2, name=name) for name in names]
+    tabs = [rrb.Grid(*[_view(p, span) for p in groups[name]], grid_columns=2, name=name) for name in names]
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Tabs(
@@ -140,9 +141,11 @@ def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None,
 
 
 
-def _view(p: Plot) -> rrb.TimeSeriesView:
+def _view(p: Plot, span: tuple[float, float] | None = None) -> rrb.TimeSeriesView:
+    whole = None if span is None else rrb.TimeAxis(view_range=rrb.TimeRange(
+        start=rrb.TimeRangeBoundary.absolute(seconds=span[0]), end=rrb.TimeRangeBoundary.absolute(seconds=span[1])))
     return rrb.TimeSeriesView(
-        origin=p.origin, name=p.name,
+        origin=p.origin, name=p.name, axis_x=whole,
         plot_legend=rrb.PlotLegend(corner="RightTop", visible=p.legend),
         axis_y=None if p.y_range is None else rrb.ScalarAxis(range=p.y_range),
     )

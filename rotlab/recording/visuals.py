@@ -136,7 +136,10 @@ def log_static(rec: rr.RecordingStream, traj: Trajectory, views) -> None:
         _log_poinsot(rec, traj, views)
     for entity, (_, names) in views.series.items():
         colors = series_colors(entity, names)
-        rec.log(entity, rr.SeriesLines(names=[style.check_text(n) for n in names], colors=colors), static=True)
+        # min-max per pixel, not the mean: a motion faster than a pixel of the whole run (a top's
+        # nutation over minutes) shows as the band it sweeps, not as its average, a flat line
+        rec.log(entity, rr.SeriesLines(names=[style.check_text(n) for n in names], colors=colors, aggregation_policy="minmax"),
+                static=True)
     for entity, color in ((layout.OMEGA_ARROW, style.OMEGA), (layout.L_ARROW, style.L)):
         rec.log(entity, rr.Arrows3D.from_fields(colors=[color], radii=[0.012 * size]), static=True)
     for view in loads_view.load_views(traj.scene):

@@ -239,7 +239,8 @@ def run_blueprint(traj: Trajectory, views: _Views):
     window = visuals.trail_window(traj.t, traj.omega) if len(traj.t) else None
     groups = layout.plots(all_series, unit, min_energy_span)
     active = layout.ENERGY_TAB if traj.scene.has_work else layout.MOTION  # loads at work: show them first
-    return layout.blueprint(groups, window, active, labels.camera(visuals.reach(traj, views)))
+    time_ = traj.scene.scenario.time  # the whole span the run is asked for, known from its first chunk on
+    return layout.blueprint(groups, window, active, labels.camera(visuals.reach(traj, views)), span=(time_.start, time_.end))
 
 
 def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
