@@ -25,18 +25,19 @@ NUMBA_CODE = re.compile(rb"@(?:numba\.)?(?:njit|overload|intrinsic|cfunc|generat
 OURS = ("rotlab.", "rotlab_formulas_")  # module names of the functions stamped here
 
 
-def kernel_sources(package: Path = PACKAGE) -> list[Path]:
+def kernel_sources(package: Path = PACKAGE) -> dict[Path, bytes]:
     """Every module of ``package`` that defines numba code, wherever it lives (``scene/formulas.py``
-    is the generated formula modules' template)."""
-    return [path for path in sorted(package.rglob("*.py")) if NUMBA_CODE.search(path.read_bytes())]
+    is the generated formula modules' template): path → contents, each file read once."""
+    contents = {path: path.read_bytes() for path in sorted(package.rglob("*.py"))}
+    return {path: text for path, text in contents.items() if NUMBA_CODE.search(text)}
 
 
 def sources_digest() -> str:
     """sha256 of the kernel sources' relative paths and contents."""
     digest = hashlib.sha256()
-    for path in kernel_sources(PACKAGE):
+    for path, text in kernel_sources(PACKAGE).items():
         digest.update(path.relative_to(PACKAGE).as_posix().encode())
-        digest.update(path.read_bytes())
+        digest.update(text)
     return digest.hexdigest()
 
 

@@ -149,8 +149,8 @@ def _damping_impl(y, damping):
 
 # The torque of each load group, written once.  The kernels inline each body through the overloads
 # above (numba inlines it where the kernel is typed: the fastest steps, every load in registers);
-# the recording's load view and the bench's peers call it compiled apart (``_called``: argument
-# types that do not depend on the scene, so each is compiled once and cached on disk).
+# the recording's load view and the bench's peers call it compiled apart (the ``_*_called`` below:
+# argument types that do not depend on the scene, so each is compiled once and cached on disk).
 
 
 def forces_torque(y, forces):
@@ -362,9 +362,8 @@ def groups_torque(t, y, forces, terms, tables, table_t, table_v, damping, ex, us
     if damping is not None:
         ax, ay, az = _damping_called(y, damping)
         mx, my, mz = mx + ax, my + ay, mz + az
-    if ex is not None:
-        ax, ay, az = expression_torque(t, y, ex.rows, ex.fn, ex.axes, ex.axes_q, ex.moments)
-        mx, my, mz = mx + ax, my + ay, mz + az
+    ax, ay, az = _expressions(t, y, ex)  # (called already: ``expression_torque``)
+    mx, my, mz = mx + ax, my + ay, mz + az
     ax, ay, az = _user(t, y, user)
     return mx + ax, my + ay, mz + az
 

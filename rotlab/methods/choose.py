@@ -19,12 +19,12 @@ initial state, loads, samples, settings), so a sweep, a benchmark or a loop over
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from dataclasses import replace
 
 import numpy as np
 
 from rotlab.errors import InputError
+from rotlab.kept import Kept
 from rotlab.methods import cost
 from rotlab.methods.base import ADAPTIVE, FIXED, Method, Settings
 from rotlab.methods.registry import METHODS, all_methods, get_method
@@ -40,20 +40,14 @@ class Choices:
     ``rotlab.api`` owns the one its runs share."""
 
     def __init__(self, size: int = 512) -> None:
-        self.size = size
-        self._kept: OrderedDict[tuple, Choice] = OrderedDict()
+        self._kept: Kept[Choice] = Kept(size)
 
     def get(self, scene: Scene, settings: Settings, t: np.ndarray) -> Choice:
         """``auto_choice``, from what is kept when the same inputs were seen."""
         key = _choice_key(scene, settings, t)
-        found = None if key is None else self._kept.get(key)
-        if found is None:
-            found = auto_choice(scene, settings, t)
-            if key is not None:  # (a Python torque is no plain number: not kept)
-                if len(self._kept) >= self.size:
-                    self._kept.popitem(last=False)
-                self._kept[key] = found
-        return found
+        if key is None:  # a Python torque is no plain number: not kept
+            return auto_choice(scene, settings, t)
+        return self._kept.get(key, lambda: auto_choice(scene, settings, t))
 
     def clear(self) -> None:
         self._kept.clear()

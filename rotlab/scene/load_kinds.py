@@ -72,13 +72,13 @@ class Compiling:
 
     def term(self, frame: str, window: cfg.Window | None, offset: np.ndarray, amplitude: np.ndarray = np.zeros(3),
              w: float = 0.0, phase: float = 0.0) -> None:
-        self.terms.append(np.array([_frame(frame), *window_of(window), *offset, *amplitude, w, phase], dtype=float))
+        self.terms.append(np.array([frame_code(frame), *window_of(window), *offset, *amplitude, w, phase], dtype=float))
 
     def table(self, frame: str, window: cfg.Window | None, times: tuple[float, ...], values: list[np.ndarray]) -> None:
         first = len(self.table_t)
         self.table_t.extend(times)
         self.table_v.extend(values)
-        self.tables.append([_frame(frame), *window_of(window), first, len(self.table_t)])
+        self.tables.append([frame_code(frame), *window_of(window), first, len(self.table_t)])
 
 
 def window_of(window: cfg.Window | None) -> tuple[float, float]:
@@ -86,7 +86,8 @@ def window_of(window: cfg.Window | None) -> tuple[float, float]:
     return (-np.inf, np.inf) if window is None else (window.on, window.off)
 
 
-def _frame(frame: str) -> float:
+def frame_code(frame: str) -> float:
+    """A frame's name as the kernels read it: BODY or SPACE."""
     return BODY if frame == "body" else SPACE
 
 
@@ -155,7 +156,7 @@ def _damping(load: cfg.Damping, index: int, c: Compiling, names: Any) -> None:
 def _expression(load: cfg.Expression, index: int, c: Compiling, names: Any) -> None:
     point = None if load.point is None else c.body_vector(load.point)
     up = np.asarray(load.up, dtype=float)
-    c.programs.add(load.programs(), _frame(load.frame), window_of(load.window), point=point, up=up / np.linalg.norm(up), names=names)
+    c.programs.add(load.programs(), frame_code(load.frame), window_of(load.window), point=point, up=up / np.linalg.norm(up), names=names)
 
 
 def _pd_control(load: cfg.PDControl, index: int, c: Compiling, names: Any) -> None:

@@ -20,13 +20,13 @@ from rotlab.config import models as cfg
 from rotlab.core import opcodes
 from rotlab.core.dynamics import euler_coefficients
 from rotlab.core.expressions import aux_rows
-from rotlab.core.quaternion import rotate_to_space_array
+from rotlab.core.quaternion import from_matrix, rotate_to_space_array
 from rotlab.core.torques import (
     EX_COLUMNS, EX_FORCE, EX_FRAME, EX_OFF, EX_ON, EX_POINT, EX_PROGRAMS, EX_RATE, EX_UP, EX_UP2, F_COLUMNS, F_FORCE, F_POINT,
     T_AMP, T_COLUMNS, T_OFF, T_OFFSET, T_ON, T_W, TB_COLUMNS, TB_OFF, TB_ON,
 )
 from rotlab.scene.load_kinds import Compiling, kind_of
-from rotlab.scene.user_torque import UserTorque, quaternion_of
+from rotlab.scene.user_torque import UserTorque
 
 UNNAMED = ("formula x", "formula y", "formula z")  # what a failure calls a formula built without names
 
@@ -104,7 +104,7 @@ def build_model(loads: LoadArrays, moments: np.ndarray, like: Model | None = Non
 def _no_expressions(moments: np.ndarray) -> Expressions:
     """An ``Expressions`` with no rows (its programs are never called)."""
     eye = np.eye(3)
-    return Expressions(np.zeros((0, EX_COLUMNS)), np.zeros((0, 3), dtype=np.int64), np.zeros(0), eye, quaternion_of(eye),
+    return Expressions(np.zeros((0, EX_COLUMNS)), np.zeros((0, 3), dtype=np.int64), np.zeros(0), eye, from_matrix(eye),
                        np.asarray(moments, dtype=float), 1, 0, 0)
 
 
@@ -153,7 +153,7 @@ class ProgramBuilder:
             return None
         return Expressions(np.array(self.rows), np.array(self.code, dtype=np.int64).reshape(-1, 3),
                            np.array(self.consts, dtype=float), np.ascontiguousarray(axes, dtype=float),
-                           quaternion_of(axes), np.asarray(moments, dtype=float), self.depth, self.aux,
+                           from_matrix(axes), np.asarray(moments, dtype=float), self.depth, self.aux,
                            generated.compiled(self.programs).address)
 
 

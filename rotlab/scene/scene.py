@@ -8,7 +8,6 @@ Internally Λ_P = Λ_U ∘ Λ_axes and ω_P = axesᵀ ω_U; every reported quant
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -22,6 +21,7 @@ from rotlab.core.state import LAMBDA, OMEGA, STATE_SIZE
 from rotlab.core.faults import Fault
 from rotlab.core.torques import F_FORCE, F_POINT
 from rotlab import inertia
+from rotlab.kept import Kept
 from rotlab.scene import fault_words
 from rotlab.scene.loads import (
     LoadArrays,
@@ -210,8 +210,7 @@ class RigidParts:
     dropped first): equal bodies and loads share one, however the scenario was written."""
 
     def __init__(self, size: int = 256) -> None:
-        self.size = size
-        self._kept: OrderedDict[object, Rigid] = OrderedDict()
+        self._kept: Kept[Rigid] = Kept(size)
 
     def get(self, scenario: cfg.Scenario) -> Rigid:
         key: object = (scenario.body, tuple(scenario.loads))  # frozen models, compared by value ...
@@ -219,12 +218,7 @@ class RigidParts:
             hash(key)
         except TypeError:  # ... unless a load holds a mapping (an expression's constants)
             key = scenario.body.model_dump_json() + "".join(load.model_dump_json() for load in scenario.loads)
-        found = self._kept.get(key)
-        if found is None:
-            if len(self._kept) >= self.size:
-                self._kept.popitem(last=False)
-            found = self._kept[key] = _build_rigid(scenario, None)
-        return found
+        return self._kept.get(key, lambda: _build_rigid(scenario, None))
 
 
 RIGID_PARTS = RigidParts()

@@ -7,7 +7,8 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
-from rotlab.scene.load_kinds import BODY, SPACE
+from rotlab.core.quaternion import from_matrix
+from rotlab.scene.load_kinds import frame_code
 
 
 def _user_signature():
@@ -63,7 +64,7 @@ def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
     problem = _return_problem(returned)
     if problem:
         raise InputError("torque", f"{name}(t, q, omega) must return 3 real numbers (Mx, My, Mz) as a tuple, list or array; it returns {problem}")
-    return UserTorque(_callback(jitted), BODY if frame == "body" else SPACE, np.ascontiguousarray(axes, dtype=float), quaternion_of(axes))
+    return UserTorque(_callback(jitted), frame_code(frame), np.ascontiguousarray(axes, dtype=float), from_matrix(axes))
 
 
 def _return_problem(returned) -> str | None:
@@ -123,10 +124,3 @@ def _numba_reason(exc: Exception) -> str:
     why = next((line for line in lines if any(k in line for k in keys)), None)
     why = why or next((line for line in lines if re.match(r"[A-Za-z]+Error: ", line)), lines[0] if lines else "")
     return why[:300]
-
-
-def quaternion_of(axes: np.ndarray) -> np.ndarray:
-    """Λ of the rotation matrix ``axes``."""
-    from rotlab.core.quaternion import from_matrix
-
-    return np.asarray(from_matrix(axes), dtype=float)
