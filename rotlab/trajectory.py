@@ -250,13 +250,16 @@ def largest_drifts(drifts: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 def stack_runs(trajectories: list[Trajectory]) -> Runs:
     """The runs ``trajectories`` stacked: all of one scene's body and loads, with the same sample times."""
     first = trajectories[0]
-    scene, t = first.scene, first.t
-    state = np.stack([traj._state for traj in trajectories])
+    return runs_of(first.scene, first.t, np.stack([traj._state for traj in trajectories]))
+
+
+def runs_of(scene: Scene, t: np.ndarray, state: np.ndarray) -> Runs:
+    """The ``Runs`` of stacked principal-frame states ``state`` (B, N, 8) of ``scene`` at times ``t``."""
     quantities = _quantities(scene, state)
     unit_q, L_p, L_space = quantities[:3]
     started = t.shape[0] > 0
     drifts = _drifts(scene, state[..., 0:4], L_p, L_space, quantities[6], _reference(quantities) if started else None)
-    L_body0, L_space0 = (L_p[:, 0], L_space[:, 0]) if started else (np.zeros((len(trajectories), 3)),) * 2
+    L_body0, L_space0 = (L_p[:, 0], L_space[:, 0]) if started else (np.zeros((state.shape[0], 3)),) * 2
     omega = state[..., 4:7]  # (a stacked copy: no trajectory's state is shared)
     if not scene.is_principal:
         omega, L_body0 = _rows_times(omega, scene.axes.T), _rows_times(L_body0, scene.axes.T)
@@ -307,8 +310,9 @@ def build_chunk(scene: Scene, stats: RunStats, t: np.ndarray, state: np.ndarray,
 
 
 def reference_of(scene: Scene, state0: np.ndarray) -> Reference:
-    """The ``Reference`` of a run that starts in ``state0`` (one row, principal frame)."""
-    return _reference(_quantities(scene, state0[None, :]))
+    """The ``Reference`` of a run that starts in ``state0`` (one row, principal frame), or of B
+    runs that start in the rows of ``state0`` (B, 8)."""
+    return _reference(_quantities(scene, state0[..., None, :]))
 
 
 def _reference(quantities) -> Reference:

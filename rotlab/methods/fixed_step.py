@@ -125,8 +125,9 @@ class FixedStepMethod:
         """The method's extra kernel arguments (after ``scene.model``), once per scene."""
         return scene.rigid.kernel_constants(self.name, order, lambda: tuple(self.extra_args(scene, order)))
 
-    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
-        order = self.order(settings)
+    def sampling(self, scene: Scene, t: np.ndarray, settings: Settings, order: int) -> tuple[int, dict[str, object]]:
+        """(steps per sample interval, the run's details) for ``scene`` over the sample times ``t``;
+        an ``InputError`` when the run would need more than ``solver.max_steps`` (known before stepping)."""
         interval = float(t[1] - t[0])
         h = self.step(scene, t, settings, order)
         substeps = max(1, math.ceil(interval / h - 1e-9))
@@ -137,6 +138,12 @@ class FixedStepMethod:
                 f"{self.name} needs {needed:.3g} steps of {interval / substeps:.3g} s for this span, beyond max_steps = "
                 f"{settings.max_steps:,}: raise solver.max_steps, give a longer solver.step or looser rtol, or use method = \"auto\"",
             )
+        return substeps, {"step": interval / substeps, "steps per sample": substeps, "order": order,
+                          "step from": "solver.step" if settings.step is not None else f"rtol = {settings.rtol:g}"}
+
+    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+        order = self.order(settings)
+        substeps, details = self.sampling(scene, t, settings, order)
         y = initial_state(scene)
         model, extra = scene.model, self.kernel_args(scene, order)
         advance = _long_samples(self.kernel, y, substeps, (model, *extra)) if substeps > CHUNK_STEPS else (
@@ -144,8 +151,7 @@ class FixedStepMethod:
         solution = run_chunks(t, y, advance, settings.max_steps, progress, lambda status, times, out, i: nonfinite_message(times, i, out),
                               explain_fault=scene.explain_fault)
         solution.rhs_evaluations = self.evaluations_per_step(scene, order) * solution.steps
-        solution.details = {"step": interval / substeps, "steps per sample": substeps, "order": order,
-                            "step from": "solver.step" if settings.step is not None else f"rtol = {settings.rtol:g}"}
+        solution.details = details
         return solution
 
 

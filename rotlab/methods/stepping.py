@@ -258,9 +258,13 @@ def adaptive_failure_message(step_too_small: bool, t_now: float, times: np.ndarr
 
 def nonfinite_message(t: np.ndarray, i: int, state: np.ndarray) -> str:
     """Where and why a run blew up, naming the last valid state (row i − 1 of ``state``)."""
-    last = state[i - 1]
+    return nonfinite_after(float(t[i - 1]), float(t[min(i, t.shape[0] - 1)]), state[i - 1])
+
+
+def nonfinite_after(t_valid: float, t_next: float, last: np.ndarray) -> str:
+    """``nonfinite_message`` from the last valid state ``last`` (at ``t_valid``) and the next sample time."""
     return (
-        f"state became non-finite between t = {t[i - 1]:.9g} s and t = {t[min(i, t.shape[0] - 1)]:.9g} s; "
+        f"state became non-finite between t = {t_valid:.9g} s and t = {t_next:.9g} s; "
         f"last valid state: Λ = {np.array2string(last[0:4], precision=6)}, ω = {np.array2string(last[4:7], precision=6)} rad/s "
         "(step too large for this scene, or the motion itself diverges)"
     )

@@ -1,0 +1,170 @@
+"""Run a block of cases — scenes of one body and loads from different initial states — through
+the method's ensemble kernel (``rotlab.ensemble.kernels``) and return what each case reports:
+status, samples made, steps, failure, observables, max drift of each invariant, and the samples
+of the cases asked for (every ``stride``-th, and the last valid one).
+
+Each case's step is its own, derived as its single run derives it (``solver.step`` or its probe),
+so each case's states are those of the case run alone (tests/test_ensemble.py: bit for bit).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rotlab.core.kernel_status import NONFINITE, OK
+from rotlab.ensemble import observe as ob
+from rotlab.errors import InputError
+from rotlab.methods.base import Settings
+from rotlab.methods.stepping import CHUNK_STEPS, nonfinite_after
+from rotlab.scene.scene import Scene
+from rotlab.trajectory import reference_of, runs_of
+
+ADAPTIVE_KERNELS = ("dop853",)  # adaptive methods with an ensemble kernel (fixed-step ones all have one)
+
+
+def has_ensemble_kernel(method: object) -> bool:
+    """``method`` (a catalog entry) runs in the ensemble kernels."""
+    return getattr(method, "stepping", None) == "fixed" or getattr(method, "name", None) in ADAPTIVE_KERNELS
+
+
+def unsupported_scene(scene: Scene) -> str | None:
+    """Why ``scene``'s loads cannot run in a parallel ensemble kernel (None when they can): numba's
+    parallel loop cannot take the formulas' record nested in the kernels' model (a TypeError while
+    compiling), and a Python ``torque=`` function is not compiled into it."""
+    if scene.loads.expressions is not None:
+        return "a formula load (expression) cannot run in the parallel ensemble kernel"
+    if scene.loads.user is not None:
+        return "a Python torque function cannot run in the parallel ensemble kernel"
+    return None
+
+
+@dataclass
+class BlockResult:
+    """What each of B cases reports (arrays of B rows; see the module docstring)."""
+
+    status: np.ndarray  # kernel status (0: OK)
+    valid: np.ndarray  # samples made
+    steps: np.ndarray  # accepted steps
+    rejected: np.ndarray  # rejected steps (adaptive)
+    evaluations: np.ndarray  # right-hand side evaluations
+    failure: list[str | None]
+    details: list[dict[str, object]]
+    flip_period: np.ndarray  # s, NaN where fewer than MIN_REVERSALS
+    reversals: np.ndarray
+    max_nutation_deg: np.ndarray
+    max_drift: dict[str, np.ndarray]  # invariant → max |relative drift| (the scene's invariants)
+    kept: dict[int, tuple[np.ndarray, np.ndarray]]  # case → (times, states (n, 8)) of the kept samples
+
+
+def case_inputs(scenes: list[Scene], given_axes: list[str | None]) -> np.ndarray:
+    """``observe``'s per-case columns (B, CASE_COLUMNS) from each case's first sample: the flip
+    axis row (``rotlab.sweep.observables.flip_axes``), e and d (``reference_axes``), the reference
+    values of the drifts (``rotlab.trajectory.reference_of``)."""
+    from rotlab.sweep.observables import flip_axes, reference_axes
+
+    scene = scenes[0]
+    y0 = np.array([s.state0 for s in scenes])
+    t0 = scene.scenario.time.sample_times()[:1]
+    first = runs_of(scene, t0, y0[:, None, :])
+    axis = flip_axes(first, given_axes)
+    e, d = reference_axes(first)
+    ref = reference_of(scene, y0)
+    case = np.zeros((len(scenes), ob.CASE_COLUMNS))
+    case[:, ob.CASE_FLIP:ob.CASE_FLIP + 3] = scene.axes[axis]
+    case[:, ob.CASE_E:ob.CASE_E + 3] = np.einsum("bj,jk->bk", e, scene.axes)  # R(Λ_user) e = R(Λ_P) Pᵀ e
+    case[:, ob.CASE_D:ob.CASE_D + 3] = d
+    case[:, ob.CASE_H0] = ref.invariant_energy[:, 0]
+    case[:, ob.CASE_SCALE] = ref.energy_scale[:, 0]
+    case[:, ob.CASE_L0:ob.CASE_L0 + 3] = ref.L_p[:, 0]
+    case[:, ob.CASE_LS0:ob.CASE_LS0 + 3] = ref.L_space[:, 0]
+    case[:, ob.CASE_LNORM] = ref.L_norm[:, 0]
+    return case
+
+
+def shared_inputs(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(shared columns, which invariants apply, the force rows of the potential) of the scene."""
+    shared = np.zeros(ob.SHARED_COLUMNS)
+    shared[ob.SHARED_MOMENTS:ob.SHARED_MOMENTS + 3] = scene.moments
+    if scene.field_direction is not None:
+        shared[ob.SHARED_UP:ob.SHARED_UP + 3] = scene.field_direction
+    if scene.symmetry_axis is not None:
+        shared[ob.SHARED_SYMMETRY:ob.SHARED_SYMMETRY + 3] = scene.symmetry_axis
+    applies = np.array([name in scene.invariants for name in ob.INVARIANTS], dtype=np.bool_)
+    forces = np.ascontiguousarray(scene.loads.forces, dtype=float) if scene.has_potential else np.zeros((0, 6))
+    return shared, applies, forces
+
+
+def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, keep: list[int], stride: int,
+              given_axes: list[str | None]) -> BlockResult | InputError:
+    """Every scene of ``scenes`` (one body and loads) with ``method`` at ``settings`` over the sample
+    times ``t``; the samples of cases ``keep`` (positions in ``scenes``) kept every ``stride``-th.
+    A fixed step that a case cannot take is that case's failure; an input error that concerns
+    every case (an order the method does not offer) is returned."""
+    from rotlab.ensemble import kernels
+
+    b, n = len(scenes), t.shape[0]
+    scene = scenes[0]
+    case = case_inputs(scenes, given_axes)
+    shared, applies, forces = shared_inputs(scene)
+    y0 = np.array([s.state0 for s in scenes])
+    status, valid = np.zeros(b, dtype=np.int64), np.zeros(b, dtype=np.int64)
+    last, acc = y0.copy(), np.zeros((b, ob.ACC_COLUMNS))
+    where = np.full(b, -1, dtype=np.int64)
+    where[keep] = np.arange(len(keep))
+    rows = math.ceil(n / stride) + 1
+    kept, kept_t = np.zeros((max(1, len(keep)), rows, 8)), np.zeros((max(1, len(keep)), rows))
+    kept_count = np.zeros(b, dtype=np.int64)
+    failure: list[str | None] = [None] * b
+    if method.adaptive:
+        counters = np.zeros((b, 3), dtype=np.int64)
+        kernels.dop853_ensemble(y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, case, shared,
+                                applies, forces, status, valid, counters, last, acc, where, stride, kept, kept_t, kept_count)
+        steps, rejected, evaluations = counters[:, 0].copy(), counters[:, 1].copy(), counters[:, 2].copy()
+        details = [{"rtol": settings.rtol, "atol": settings.atol}] * b
+    else:
+        try:
+            order = method.order(settings)
+        except InputError as exc:
+            return exc
+        substeps, details = np.zeros(b, dtype=np.int64), []
+        for k, s in enumerate(scenes):
+            try:
+                substeps[k], details_k = _substeps(method, s, t, settings, order)
+                details.append(details_k)
+            except InputError as exc:
+                failure[k] = str(exc)
+                details.append({})
+        steps = np.zeros(b, dtype=np.int64)
+        kernels.fixed_step_ensemble(method.kernel, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
+                                    case, shared, applies, forces, status, valid, steps, last, acc, where, stride, kept, kept_t,
+                                    kept_count)
+        rejected = np.zeros(b, dtype=np.int64)
+        evaluations = steps * method.evaluations_per_step(scene, order)
+    for k in range(b):
+        if failure[k] is not None:
+            continue
+        if status[k] == NONFINITE:
+            failure[k] = nonfinite_after(float(t[valid[k] - 1]), float(t[min(valid[k], n - 1)]), last[k])
+        elif status[k] != OK:
+            failure[k] = f"step size fell below the floating-point resolution after t = {t[valid[k] - 1]:.9g} s (the solution is singular or the tolerances too tight)"
+        elif valid[k] < n:
+            failure[k] = f"step budget of {settings.max_steps:,} steps exhausted at t = {t[valid[k] - 1]:.9g} s (raise solver.max_steps)"
+    ran = valid > 0
+    drift = {name: np.where(ran, acc[:, ob.ACC_DRIFT + k], np.nan) for k, name in enumerate(ob.INVARIANTS) if applies[k]}
+    period = np.array([ob.flip_period(acc[k]) if ran[k] else math.nan for k in range(b)])
+    nutation = np.where(ran, np.degrees(np.arccos(np.where(ran, acc[:, ob.ACC_MIN_COS], 1.0))), np.nan)
+    kept_rows = {k: (kept_t[where[k], :kept_count[k]].copy(), kept[where[k], :kept_count[k]].copy()) for k in keep if ran[k]}
+    return BlockResult(status, valid, steps, rejected, evaluations, failure, details, period,
+                       acc[:, ob.ACC_REVERSALS].astype(np.int64), nutation, drift, kept_rows)
+
+
+def _substeps(method, scene: Scene, t: np.ndarray, settings: Settings, order: int) -> tuple[int, dict[str, object]]:
+    """``method.sampling`` of ``scene``; an ``InputError`` where its single run would refuse, or
+    would cut a sample interval into pieces (more than ``CHUNK_STEPS`` steps: not an ensemble's case)."""
+    substeps, details = method.sampling(scene, t, settings, order)
+    if substeps > CHUNK_STEPS:
+        raise InputError("solver.step", f"{substeps:,} steps per sample interval: run this case alone (rotlab run) or sample more often")
+    return substeps, details

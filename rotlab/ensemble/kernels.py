@@ -1,0 +1,122 @@
+"""Many cases of one scene's body and loads per call, in parallel over cases (numba ``prange``):
+each case is the method's own kernel run as a single run calls it, its observables reduced as
+its samples are made (``rotlab.ensemble.observe``), and only the samples of the cases asked for
+kept (every ``stride``-th and the last valid one).
+
+Fixed-step methods (``advance(y, times, out, i, substeps, max_steps, model, *extra)``, see
+``rotlab.methods.fixed_step``) run in windows of ``WINDOW`` samples: a fixed step starts each
+sample interval afresh, so the windows change no bit, and a case needs WINDOW rows of memory
+whatever its length.  ``dop853`` runs over the whole sample grid in one call, as a single run
+does (its steps straddle samples: a window would change them), so a case holds its N rows while it runs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from rotlab.core.dop853 import dop853_advance
+from rotlab.core.dynamics import STATE_SIZE, store_row
+from rotlab.core.kernel_status import OK
+from rotlab.ensemble.observe import observe_rows
+
+WINDOW = 4096  # samples per fixed-step kernel call within a case
+
+
+@njit(cache=True)
+def _finite_rows(rows, start, stop):
+    """The end of the run of finite rows from ``start`` (≤ ``stop``): a kernel that stops on a
+    non-finite state may have written rows past its last valid one (``stepping._valid_rows``)."""
+    for i in range(start, stop):
+        for m in range(rows.shape[1]):
+            if not np.isfinite(rows[i, m]):
+                return i
+    return stop
+
+
+@njit(cache=True)
+def _keep(rows, times, start, stop, offset, stride, kept, kept_t, count):
+    """Copy the rows ``start … stop − 1`` whose sample index (row + ``offset``) is a multiple of
+    ``stride`` into ``kept`` after its ``count[0]`` rows."""
+    for i in range(start, stop):
+        if (i + offset) % stride == 0:
+            store_row(kept, count[0], rows[i])
+            kept_t[count[0]] = times[i]
+            count[0] += 1
+
+
+@njit(cache=True)
+def _keep_last(row, t, kept, kept_t, count):
+    """The last valid sample, if ``_keep`` did not take it."""
+    if count[0] == 0 or kept_t[count[0] - 1] != t:
+        store_row(kept, count[0], row)
+        kept_t[count[0]] = t
+        count[0] += 1
+
+
+@njit(cache=True, parallel=True)
+def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces,
+                        status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count):
+    """Every case b from ``y0[b]`` with ``substeps[b]`` steps per sample interval: ``status[b]``,
+    ``valid[b]`` (samples made), ``steps[b]``, ``acc[b]`` (observables); case b's samples go to
+    ``kept[keep[b]]`` (``kept_count[b]`` rows) when ``keep[b] ≥ 0``; ``last[b]``: its last valid
+    state.  A case with ``substeps[b] ≤ 0`` is not run (its outputs are left as they are)."""
+    n = times.shape[0]
+    for b in prange(y0.shape[0]):
+        if substeps[b] <= 0:
+            continue
+        y = y0[b].copy()
+        rows = np.empty((min(n, WINDOW + 1), STATE_SIZE))
+        store_row(rows, 0, y)
+        observe_rows(times, rows, 0, 1, True, case[b], shared, applies, forces, acc[b])
+        count = np.zeros(1, dtype=np.int64)
+        if keep[b] >= 0:
+            _keep(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
+        code, i, taken = OK, 1, 0
+        while i < n:
+            lo, hi = i - 1, min(n, i + WINDOW)
+            code, j, done = advance(y, times[lo:hi], rows, 1, substeps[b], max_steps - taken, model, *extra)
+            taken += done
+            if code != OK:
+                j = _finite_rows(rows, 1, j)
+            observe_rows(times[lo:hi], rows, 1, j, False, case[b], shared, applies, forces, acc[b])
+            if keep[b] >= 0:
+                _keep(rows, times[lo:hi], 1, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
+            i = lo + j
+            store_row(rows, 0, rows[j - 1])
+            if code != OK or j == 1:  # non-finite, or the step budget cannot reach the next sample
+                break
+        if keep[b] >= 0:
+            _keep_last(rows[0], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
+        status[b], valid[b], steps[b] = code, i, taken
+        store_row(last, b, rows[0])
+        kept_count[b] = count[0]
+
+
+@njit(cache=True, parallel=True)
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, case, shared, applies, forces,
+                    status, valid, counters, last, acc, keep, stride, kept, kept_t, kept_count):
+    """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations)."""
+    n = times.shape[0]
+    for b in prange(y0.shape[0]):
+        y = y0[b].copy()
+        rows = np.empty((n, STATE_SIZE))
+        store_row(rows, 0, y)
+        code, i, t, h, attempts = OK, 1, times[0], 0.0, 0
+        while i < n and attempts < max_steps:  # in calls of ``chunk`` attempts, as ``stepping.run_chunks`` makes them
+            before = counters[b, 0] + counters[b, 1]
+            code, i, t, h = dop853_advance(y, t, h, times, rows, i, times[n - 1], rtol, atol, min(chunk, max_steps - attempts),
+                                           model, counters[b])
+            attempts += counters[b, 0] + counters[b, 1] - before
+            if code != OK:
+                break
+        if code != OK:
+            i = _finite_rows(rows, 1, i)
+        observe_rows(times, rows, 0, i, True, case[b], shared, applies, forces, acc[b])
+        count = np.zeros(1, dtype=np.int64)
+        if keep[b] >= 0:
+            _keep(rows, times, 0, i, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
+            _keep_last(rows[i - 1], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
+        status[b], valid[b] = code, i
+        store_row(last, b, rows[i - 1])
+        kept_count[b] = count[0]
