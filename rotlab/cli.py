@@ -299,7 +299,8 @@ def sweep(
         from rotlab.parallel import exit_after_stop
         from rotlab.arrow import withhold_pandas
         from rotlab.sweep.recording import write_comparison
-        from rotlab.sweep.report import rows, terminal_table, write_results
+        from rotlab.sweep.report import terminal_table, write_results
+        from rotlab.sweep.results import Results, parameter_names
 
         keep_heap()  # the ensemble path reports its cases here, and the results table is built here
         withhold_pandas()  # pyarrow would import pandas (time and memory) just to ask if our arrays are Series
@@ -307,22 +308,25 @@ def sweep(
             sweep_plan = plan(config)
             prepare_outdir(outdir)
             exit_after_stop()
-            run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm)
+            # the results table: results.csv grows as cases finish; the final files, the recording and the terminal read it
+            results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / "results.csv")
+            run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm,
+                            on_outcomes=results.add)
         except InputError as exc:
             _fail(exc)
-    outcomes = run.outcomes
-    results = rows(outcomes)  # the results table, made once for the files, the recording and the terminal
+        except OSError as exc:
+            _fail(RunFailure(f"could not write the sweep's results in {outdir}: {exc.strerror or exc}"))
     try:
         write_results(results, outdir)
-        write_comparison(outcomes, results, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
+        write_comparison(results, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
     except (OSError, RunFailure) as exc:
         _fail(RunFailure(f"could not write the sweep's results in {outdir}: {getattr(exc, 'strerror', None) or exc}"))
-    typer.echo(terminal_table(outcomes, run.how, results))
+    typer.echo(terminal_table(results, run.how))
     typer.echo(f"wrote {outdir / 'results.csv'}, {outdir / 'results.parquet'}, {outdir / (config.stem + '_sweep.rrd')}")
     if run.stopped:
         _stopped_line(f"rotlab: sweep stopped by {signal.Signals(run.stopped).name}: wrote the results of the cases that finished")
         raise typer.Exit(128 + run.stopped)
-    if any(o.status != "pass" for o in outcomes):
+    if results.failing().shape[0]:
         raise typer.Exit(1)
 
 

@@ -229,12 +229,15 @@ def test_a_chunk_whose_worker_died_runs_again_case_by_case(write, monkeypatch):
 def test_the_terminal_shows_a_large_sweeps_failing_cases_only(cases, failing):
     """Up to ``TERMINAL_ROWS`` cases every row is printed; beyond, the rows and messages of (at
     most ``TERMINAL_ROWS``) cases that did not pass, and where the rest are."""
-    from rotlab.sweep.report import TERMINAL_ROWS, rows, terminal_table
+    from rotlab.sweep.report import TERMINAL_ROWS, terminal_table
+    from rotlab.sweep.results import Results
     from rotlab.sweep.runner import CaseOutcome
 
     outcomes = [CaseOutcome(k, {"initial.omega[0]": 0.1 * k}, "fail" if k in failing else "pass", method="rk4",
                             message=f"case {k} broke a bound" if k in failing else "") for k in range(cases)]
-    lines = terminal_table(outcomes, "1 local worker process", rows(outcomes)).splitlines()
+    results = Results(["initial.omega[0]"], [])
+    results.add(outcomes[::-1])  # (cases finish in any order: the table is in case order)
+    lines = terminal_table(results, "1 local worker process").splitlines()
     table_rows = [line for line in lines[2:-1] if line.split()[0].isdigit()]
     messages = [line for line in lines if line.startswith("case ") and ": " in line]
     assert lines[-1] == f"{cases - len(failing)} passed, {len(failing)} failed"

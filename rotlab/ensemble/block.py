@@ -138,7 +138,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
                 failure[k] = str(exc)
                 details.append({})
         steps = np.zeros(b, dtype=np.int64)
-        kernels.fixed_step_ensemble(method.kernel, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
+        kernels.fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
                                     case, shared, applies, forces, status, valid, steps, last, acc, where, stride, kept, kept_t,
                                     kept_count)
         rejected = np.zeros(b, dtype=np.int64)

@@ -4,7 +4,8 @@ its samples are made (``rotlab.ensemble.observe``), and only the samples of the 
 kept (every ``stride``-th and the last valid one).
 
 Fixed-step methods (``advance(y, times, out, i, substeps, max_steps, model, *extra)``, see
-``rotlab.methods.fixed_step``) run in windows of ``WINDOW`` samples: a fixed step starts each
+``rotlab.methods.fixed_step``), named by a string the kernel is compiled for (``advance_of``:
+a kernel passed as an argument would be a function pointer, which numba cannot cache), run in windows of ``WINDOW`` samples: a fixed step starts each
 sample interval afresh, so the windows change no bit, and a case needs WINDOW rows of memory
 whatever its length.  ``dop853`` runs over the whole sample grid in one call, as a single run
 does (its steps straddle samples: a window would change them), so a case holds its N rows while it runs.
@@ -13,7 +14,8 @@ does (its steps straddle samples: a window would change them), so a case holds i
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import literally, njit, prange, types
+from numba.extending import overload
 
 from rotlab.core.dop853 import dop853_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
@@ -21,6 +23,25 @@ from rotlab.core.kernel_status import OK
 from rotlab.ensemble.observe import observe_rows
 
 WINDOW = 4096  # samples per fixed-step kernel call within a case
+
+
+def advance_of(method, y, times, rows, i, substeps, budget, model, extra):
+    """The kernel of the fixed-step method named ``method`` (a literal string), called with ``*extra``."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(advance_of)
+def _advance_of(method, y, times, rows, i, substeps, budget, model, extra):
+    if not isinstance(method, types.StringLiteral):
+        return None
+    from rotlab.methods.registry import get_method
+
+    kernel = get_method(method.literal_value).kernel
+
+    def call(method, y, times, rows, i, substeps, budget, model, extra):
+        return kernel(y, times, rows, i, substeps, budget, model, *extra)
+
+    return call
 
 
 @njit(cache=True)
@@ -55,9 +76,10 @@ def _keep_last(row, t, kept, kept_t, count):
 
 
 @njit(cache=True, parallel=True)
-def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces,
+def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces,
                         status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count):
-    """Every case b from ``y0[b]`` with ``substeps[b]`` steps per sample interval: ``status[b]``,
+    """Every case b from ``y0[b]`` with ``substeps[b]`` steps per sample interval of the fixed-step
+    method named ``method``: ``status[b]``,
     ``valid[b]`` (samples made), ``steps[b]``, ``acc[b]`` (observables); case b's samples go to
     ``kept[keep[b]]`` (``kept_count[b]`` rows) when ``keep[b] ≥ 0``; ``last[b]``: its last valid
     state.  A case with ``substeps[b] ≤ 0`` is not run (its outputs are left as they are)."""
@@ -75,7 +97,7 @@ def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, c
         code, i, taken = OK, 1, 0
         while i < n:
             lo, hi = i - 1, min(n, i + WINDOW)
-            code, j, done = advance(y, times[lo:hi], rows, 1, substeps[b], max_steps - taken, model, *extra)
+            code, j, done = advance_of(literally(method), y, times[lo:hi], rows, 1, substeps[b], max_steps - taken, model, extra)
             taken += done
             if code != OK:
                 j = _finite_rows(rows, 1, j)

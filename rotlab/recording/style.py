@@ -80,12 +80,14 @@ def label_3d(text: str) -> str:
 
 
 def ramp(n: int) -> list[Color]:
-    """``n`` colours from violet through teal to yellow (viridis-like, light enough on a dark
-    background): case k of a sweep sorted by its parameter gets ramp(n)[k]."""
-    out = []
-    for k in range(n):
-        s = k / max(n - 1, 1)
-        h = 0.78 - 0.62 * s  # violet 0.78 → yellow 0.16
-        r, g, b = colorsys.hls_to_rgb(h, 0.45 + 0.2 * s, 0.85)
-        out.append((round(255 * r), round(255 * g), round(255 * b)))
-    return out
+    """``n`` colours from violet through teal to yellow: case k of a sweep sorted by its parameter
+    gets ramp(n)[k] (``ramp_color(k / (n − 1))``)."""
+    return [ramp_color(k / max(n - 1, 1)) for k in range(n)]
+
+
+def ramp_color(s: float) -> Color:
+    """The colour at ``s`` ∈ [0, 1] from violet (0) through teal to yellow (1), viridis-like and
+    light enough on a dark background."""
+    h = 0.78 - 0.62 * s  # violet 0.78 → yellow 0.16
+    r, g, b = colorsys.hls_to_rgb(h, 0.45 + 0.2 * s, 0.85)
+    return (round(255 * r), round(255 * g), round(255 * b))

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import difflib
 import itertools
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 from pydantic import BaseModel
@@ -63,20 +65,50 @@ def check_overlaps(paths: list[str]) -> None:
         raise InputError(f"sweep.parameters.{part}", f"sets part of '{whole}', which is swept too: sweep the whole value or its parts, not both")
 
 
-def expand(sweep: cfg.Sweep) -> list[Case]:
-    grid_keys = [k for k, v in sweep.parameters.items() if isinstance(v, list)]
-    random_keys = [k for k, v in sweep.parameters.items() if not isinstance(v, list)]
-    points = list(itertools.product(*(sweep.parameters[k] for k in grid_keys)))
-    repeats = sweep.samples or 1
-    cases = []
-    for index in range(len(points) * repeats):
-        values: dict[str, Any] = dict(zip(grid_keys, points[index // repeats]))
-        if random_keys:
-            rng = np.random.default_rng([sweep.seed, index])
-            for key in random_keys:
-                values[key] = draw(sweep.parameters[key], rng)
-        cases.append(Case(index, values))
-    return cases
+class Cases(Sequence[Case]):
+    """The cases of a ``[sweep]``, each made when asked for (a million cases are not held): case k
+    is grid point k // samples (the grid's last parameter varying fastest) and draw k."""
+
+    def __init__(self, sweep: cfg.Sweep) -> None:
+        self.sweep = sweep
+        self.grid_keys = [k for k, v in sweep.parameters.items() if isinstance(v, list)]
+        self.random_keys = [k for k, v in sweep.parameters.items() if not isinstance(v, list)]
+        self.sizes = [len(sweep.parameters[k]) for k in self.grid_keys]
+        self.repeats = sweep.samples or 1
+        self._len = math.prod(self.sizes) * self.repeats
+
+    def __len__(self) -> int:
+        return self._len
+
+    @overload
+    def __getitem__(self, index: int) -> Case: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[Case]: ...
+
+    def __getitem__(self, index: int | slice) -> Case | list[Case]:
+        if isinstance(index, slice):
+            return [self._case(k) for k in range(*index.indices(self._len))]
+        k = index + self._len if index < 0 else index
+        if not 0 <= k < self._len:
+            raise IndexError(index)
+        return self._case(k)
+
+    def _case(self, index: int) -> Case:
+        point, values = index // self.repeats, {}
+        for key, size in zip(reversed(self.grid_keys), reversed(self.sizes)):  # itertools.product's order
+            point, at = divmod(point, size)
+            values[key] = self.sweep.parameters[key][at]
+        values = {key: values[key] for key in self.grid_keys}
+        if self.random_keys:
+            rng = np.random.default_rng([self.sweep.seed, index])
+            for key in self.random_keys:
+                values[key] = draw(self.sweep.parameters[key], rng)
+        return Case(index, values)
+
+
+def expand(sweep: cfg.Sweep) -> Cases:
+    return Cases(sweep)
 
 
 def draw(dist: cfg.Distribution, rng: np.random.Generator) -> float | list[float]:
@@ -115,7 +147,7 @@ class SweepPlan:
     """A sweep file read: its scenario (``base``), its cases and the document they change."""
 
     base: cfg.Scenario
-    cases: list[Case]
+    cases: Sequence[Case]  # ``Cases``: made when asked for
     raw: dict[str, Any]  # the file's document, to which each case's values are applied
     source: str  # the file, as error messages name it
 

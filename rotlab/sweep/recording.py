@@ -6,14 +6,16 @@ Entities
     /results/<parameter>/<observable>            scatter: observable of each case against the
                                                  swept parameter (see ``rotlab.recording.scatter``)
     /sweep                                       the results table (Markdown)
-Case k has the same colour everywhere (``style.ramp`` in the order of the first swept
+Bounded whatever the number of cases: series of at most ``MAX_COMPARED`` cases (spread evenly
+over the sweep, and any asked for: ``rotlab.sweep.runner.compared_cases``), scatters of at most
+``MAX_SCATTER`` cases, a table of at most ``MAX_TABLE`` rows.
+Case k has the same colour everywhere (``style.ramp_color`` in the order of the first swept
 parameter), so a line in a time plot and a point in a scatter plot are recognisably one case.
 Every view's origin is an entity subtree that exists (tested: tests/test_visuals.py).
 """
 
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 
@@ -21,11 +23,13 @@ import numpy as np
 
 from rotlab.recording import scatter as sc
 from rotlab.recording.layout import TIMELINE
-from rotlab.recording.style import AXIS_TRACE, ramp
-from rotlab.sweep.report import Table
+from rotlab.recording.style import AXIS_TRACE, ramp_color
+from rotlab.sweep.results import Results
 from rotlab.sweep.runner import CaseOutcome
 
-MAX_COMPARED = 50
+MAX_COMPARED = 50  # cases with series in the recording (``rotlab.sweep.runner.compared_cases``)
+MAX_SCATTER = 20_000  # cases drawn in each scatter (evenly spread over the sweep), and ...
+MAX_TABLE = 500  # ... rows in its Markdown table (the compared and the failing cases first)
 LOG_FLOOR = 1e-17  # below double precision: drawn as −17
 COMPONENTS = (("omega_x", "p = ω_x"), ("omega_y", "q = ω_y"), ("omega_z", "r = ω_z"))
 OBSERVABLES = {  # table column → (plot title, transform of the value)
@@ -36,30 +40,36 @@ OBSERVABLES = {  # table column → (plot title, transform of the value)
 }
 
 
-def parameter_columns(results: Table) -> list[str]:
-    """The swept parameter columns of the results table that vary and are numbers."""
-    header, table = results
-    first = header.index("status")
+def parameter_columns(results: Results) -> list[str]:
+    """The swept parameter columns that vary (finite values)."""
     out = []
-    for k in range(1, first):
-        values = [r[k] for r in table if isinstance(r[k], (int, float))]
-        if len(set(values)) > 1:
-            out.append(header[k])
+    for name in results.params:
+        values = results.column(name)
+        values = values[np.isfinite(values)]
+        if values.size and np.any(values != values[0]):
+            out.append(name)
     return out
 
 
-def case_colors(results: Table) -> dict[int, tuple[int, int, int]]:
-    """Case index → colour, ordered by the first varying parameter (then by case number)."""
-    header, table = results
+def case_colors(results: Results, rows: np.ndarray) -> list[tuple[int, int, int]]:
+    """The colour of each of ``rows``: its rank among all cases by the first varying parameter (then
+    by case number) on the violet → yellow ramp."""
     params = parameter_columns(results)
-    column = header.index(params[0]) if params else 0
-    order = sorted(range(len(table)), key=lambda i: (_value(table[i][column]), table[i][0]))
-    colors = ramp(len(order))
-    return {int(table[i][0]): colors[rank] for rank, i in enumerate(order)}
+    case = results.column("case")
+    key = results.column(params[0]) if params else case.astype(float)
+    order = np.lexsort((case, np.nan_to_num(key, nan=np.inf)))
+    rank = np.empty(order.shape[0], dtype=np.int64)
+    rank[order] = np.arange(order.shape[0])
+    top = max(order.shape[0] - 1, 1)
+    return [ramp_color(r / top) for r in rank[rows].tolist()]
 
 
-def _value(cell: object) -> float:
-    return float(cell) if isinstance(cell, (int, float)) else math.nan
+def drawn_rows(results: Results) -> np.ndarray:
+    """The rows drawn in the scatters: every case, or ``MAX_SCATTER`` spread evenly over the cases (in case order)."""
+    order = results.in_case_order()
+    if order.shape[0] <= MAX_SCATTER:
+        return order
+    return order[np.unique(np.linspace(0, order.shape[0] - 1, MAX_SCATTER).round().astype(np.int64))]
 
 
 def slug(name: str) -> str:
@@ -67,33 +77,29 @@ def slug(name: str) -> str:
     return re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9_]", "_", name)).strip("_")
 
 
-def plots(results: Table, colors: dict[int, tuple[int, int, int]]) -> dict[str, dict[str, sc.Scatter]]:
-    """parameter → observable → scatter (observables undefined in every case are left out), in
-    the cases' ``colors`` (``case_colors``)."""
-    header, table = results
-    point_colors = [colors[int(r[0])] for r in table]
+def plots(results: Results, rows: np.ndarray, colors: list[tuple[int, int, int]]) -> dict[str, dict[str, sc.Scatter]]:
+    """parameter → observable → scatter of ``rows`` (observables undefined in every case are left
+    out), in the cases' ``colors``."""
     out: dict[str, dict[str, sc.Scatter]] = {}
     for param in parameter_columns(results):
-        at = header.index(param)
-        x = np.array([_value(r[at]) for r in table])
+        x = results.column(param)[rows]
         views = {}
         for column, (_, transform) in OBSERVABLES.items():
-            if column not in header:
+            if column not in results.header:
                 continue
-            at = header.index(column)
-            y = np.array([_value(r[at]) for r in table])
+            y = results.column(column)[rows].astype(float)
             if transform == "log10":
                 with np.errstate(divide="ignore", invalid="ignore"):
                     y = np.log10(np.abs(y))
                 y[~np.isfinite(y)] = np.nan
-            drawn = sc.scatter(x, y, point_colors)
+            drawn = sc.scatter(x, y, colors)
             if drawn is not None:
                 views[column] = drawn
         out[param] = views
     return out
 
 
-def blueprint(results: Table, shown: list[CaseOutcome], scatters: dict[str, dict[str, sc.Scatter]]):
+def blueprint(results: Results, shown: list[CaseOutcome], scatters: dict[str, dict[str, sc.Scatter]]):
     import rerun.blueprint as rrb
 
     spin = _spin_component(shown)
@@ -132,32 +138,53 @@ def _spin_component(shown: list[CaseOutcome]) -> int:
     return int(np.argmax(spread)) if shown else 0
 
 
-def write_comparison(outcomes: list[CaseOutcome], results: Table, path: Path, title: str) -> Path:
-    """One recording comparing up to ``MAX_COMPARED`` cases; ``results``: their results table
-    (``rotlab.sweep.report.rows``).  Written as a run's recording is (``RecordingSink``: every
-    write checked, the file verified, then renamed): a full disk is ``RunFailure``, with no
-    temporary file left and an existing file untouched."""
+def table_rows(results: Results, shown: list[CaseOutcome]) -> np.ndarray:
+    """The rows of the recording's Markdown table: every case, or the compared and the failing
+    ones first and then the others in case order, ``MAX_TABLE`` in all (in case order)."""
+    order = results.in_case_order()
+    if order.shape[0] <= MAX_TABLE:
+        return order
+    case = results.column("case")
+    first = np.flatnonzero(np.isin(case, [o.index for o in shown]))
+    chosen = np.unique(np.concatenate([first, results.failing()[:MAX_TABLE]]))[:MAX_TABLE]
+    rest = order[~np.isin(order, chosen)][: MAX_TABLE - chosen.shape[0]]
+    picked = np.concatenate([chosen, rest])
+    return picked[np.argsort(case[picked], kind="stable")]
+
+
+def write_comparison(results: Results, path: Path, title: str) -> Path:
+    """One recording comparing the cases that kept their series (``results.compared``, at most
+    ``MAX_COMPARED``) and scattering every case's observables (up to ``MAX_SCATTER``).  Written as
+    a run's recording is (``RecordingSink``: every write checked, the file verified, then
+    renamed): a full disk is ``RunFailure``, with no temporary file left and an existing file untouched."""
     import rerun as rr
 
     from rotlab.recording.sink import RecordingSink
     from rotlab.recording.writer import check_output_path
 
     check_output_path(path)
-    shown = [o for o in outcomes if o.t is not None][:MAX_COMPARED]
-    header, table = results
-    colors = case_colors(results)
-    scatters = plots(results, colors)
+    shown = sorted(results.compared, key=lambda o: o.index)[:MAX_COMPARED]
+    case = results.column("case")
+    row_of = {int(c): k for k, c in enumerate(case.tolist())} if shown else {}
+    shown_colors = dict(zip([o.index for o in shown], case_colors(results, np.array([row_of[o.index] for o in shown], dtype=np.int64))))
+    drawn = drawn_rows(results)
+    scatters = plots(results, drawn, case_colors(results, drawn))
+    header = results.header
+    listed = table_rows(results, shown)
     sink = RecordingSink(path, application_id="rotlab-sweep")
     try:
         sink.open(blueprint(results, shown, scatters))
         rec = sink.rec
-        md = [f"# {title or 'sweep'}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+        md = [f"# {title or 'sweep'}", ""]
+        if listed.shape[0] < len(results):
+            md += [f"{listed.shape[0]} of {len(results):,} cases (those compared and those that did not pass first): every case is in results.csv.", ""]
+        md += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+        table = results.table(listed)
         md += ["| " + " | ".join(f"{v:.4g}" if isinstance(v, float) else str(v) for v in r) + " |" for r in table]
         rec.log("/sweep", rr.TextDocument("\n".join(md), media_type="text/markdown"), static=True)
-        names = {int(r[0]): _case_name(header, r) for r in table}
         for o in shown:
             index = [rr.TimeColumn(TIMELINE, duration=np.round(o.t * 1e9).astype(np.int64).astype("timedelta64[ns]"))]
-            style = rr.SeriesLines(names=[names[o.index]], colors=[colors[o.index]])
+            style = rr.SeriesLines(names=[_case_name(results, row_of[o.index])], colors=[shown_colors[o.index]])
             for k, (entity, _) in enumerate(COMPONENTS):
                 rec.log(f"/compare/{entity}/case_{o.index}", style, static=True)
                 rec.send_columns(f"/compare/{entity}/case_{o.index}", index, rr.Scalars.columns(scalars=o.omega[:, k]))
@@ -181,6 +208,6 @@ def write_comparison(outcomes: list[CaseOutcome], results: Table, path: Path, ti
     return final
 
 
-def _case_name(header: list[str], row: list[object]) -> str:
-    params = [f"{h}={v:.3g}" if isinstance(v, float) else f"{h}={v}" for h, v in zip(header[1:header.index("status")], row[1:])]
-    return f"case {row[0]}: " + ", ".join(params)
+def _case_name(results: Results, row: int) -> str:
+    params = [f"{p}={v:.3g}" for p in results.params if np.isfinite(v := float(results.column(p)[row]))]
+    return f"case {int(results.column('case')[row])}: " + ", ".join(params)

@@ -1,10 +1,15 @@
 """Run a sweep's cases: local processes (default), a Dask cluster (``--dask``), or — when only
-initial conditions vary and the method is ``rk4`` — one ensemble kernel call for all bodies.
+initial conditions vary and the method has an ensemble kernel (every fixed-step method, dop853)
+— blocks of cases through the ensemble kernels in this process (``rotlab.ensemble``), each
+case's observables reduced as it runs.
 When only initial conditions vary, the local workers run every case with one method chosen here
 (``rotlab.sweep.shared_choice``) rather than each case's own.
 Local workers take the cases in chunks (``chunk_size``): a worker validates its chunk's cases,
 runs them one after the other and reports them together, the runs of one body and loads stacked
-(``outcomes_of``).  A failing case is reported with its error; the others complete."""
+(``outcomes_of``).  A failing case is reported with its error; the others complete.
+Every way hands the outcomes to ``on_outcomes`` as cases finish (the CLI's ``Results``: results.csv
+grows as they do); only the ``compared`` cases (``compared_cases``) carry their decimated series.
+"""
 
 from __future__ import annotations
 
@@ -12,7 +17,7 @@ import math
 import os
 import signal
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,12 +28,16 @@ import numpy as np
 from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError
-from rotlab.parallel import TaskRun, WarmWorkers, run_tasks
+from rotlab.parallel import Stopped, TaskEnd, TaskRun, WarmWorkers, run_tasks, signals_raise_stopped
 from rotlab.sweep.cases import Case, SweepPlan, case_scenario, check_overlaps, check_path, expand
 from rotlab.sweep.shared_choice import SharedChoice, initial_only, shared_choice
 from rotlab.trajectory import Trajectory, stack_runs
 
 COMPARISON_SAMPLES = 2000  # per case, in the comparison recording
+COMPARED_CASES = 50  # cases with series in the comparison recording, spread evenly over the sweep
+BLOCK_CASES = 4096  # at most this many cases per ensemble kernel call (their outcomes are then reported and dropped) ...
+FIRST_BLOCK = 64  # ... the first call this many, the next ones as many as take ~BLOCK_SECONDS (``block_size``)
+BLOCK_SECONDS = 1.0
 CHUNK_CASES = 64  # at most this many cases in a local worker's task (``chunk_size``)
 CHUNKS_PER_WORKER = 8  # ... and at least this many tasks per worker, for balance and a quick stop
 # what a sweep worker imports before its first task (not the recording writer: a case writes no file)
@@ -69,8 +78,16 @@ def plan(config: Path) -> SweepPlan:
     return p
 
 
-def outcomes_of(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOutcome]:
-    """The report of each (case, trajectory, its wall time): checks, observables, decimated series.
+def compared_cases(count: int, asked: Iterable[int] = ()) -> frozenset[int]:
+    """The cases whose series the comparison recording shows: ``COMPARED_CASES`` spread evenly
+    over the ``count`` cases (all of them when fewer), and the ``asked`` ones."""
+    spread = np.unique(np.linspace(0, count - 1, min(count, COMPARED_CASES)).round().astype(np.int64)) if count else []
+    return frozenset([*map(int, spread), *asked])
+
+
+def outcomes_of(runs: list[tuple[Case, Trajectory, float]], compared: frozenset[int] | None = None) -> list[CaseOutcome]:
+    """The report of each (case, trajectory, its wall time): checks, observables, and for the cases
+    in ``compared`` (None: every case) the decimated series.
     Runs of one body and loads over the same sample times are reported together (their series
     stacked: ``rotlab.trajectory.stack_runs``); each run's ``seconds`` gets its share of that."""
     groups: dict[tuple, list[int]] = {}
@@ -82,7 +99,7 @@ def outcomes_of(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOutcome]
     outcomes: list[CaseOutcome | None] = [None] * len(runs)
     for members in groups.values():
         started = time.perf_counter()
-        group = _stacked_outcomes([runs[k] for k in members])
+        group = _stacked_outcomes([runs[k] for k in members], compared)
         share = (time.perf_counter() - started) / len(members)
         for k, outcome in zip(members, group):
             outcome.seconds += share
@@ -90,8 +107,7 @@ def outcomes_of(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOutcome]
     return outcomes
 
 
-def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOutcome]:
-    from rotlab.checks import checks_of
+def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]], compared: frozenset[int] | None) -> list[CaseOutcome]:
     from rotlab.sweep.observables import flip_axes, flips, observables
 
     stacked = stack_runs([traj for _, traj, _ in runs])
@@ -105,31 +121,41 @@ def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]]) -> list[CaseOu
     t = stacked.t[shown]  # every k-th sample and the last: the comparison spans the whole run
     outcomes = []
     for b, (case, traj, seconds) in enumerate(runs):
-        case_drift = {name: float(values[b]) for name, values in drift.items()}
-        checks = checks_of(traj.scene, case_drift, (float(period[b]), int(reversals[b])), traj.stats.failure)
-        failed = [c for c in checks if not c.passed]
-        outcomes.append(CaseOutcome(
-            index=case.index,
-            values=case.values,
-            status="fail" if failed else "pass",
-            method=traj.stats.method,
-            steps=traj.stats.steps,
-            seconds=seconds,
-            drift=case_drift,
-            checks=[{"name": c.name, "passed": c.passed, "value": c.value, "limit": c.limit} for c in checks],
-            message="; ".join(c.message for c in failed),
-            observables={name: float(values[b]) for name, values in found.items()},
-            t=t,
-            omega=stacked.omega[b, shown],
-            energy_drift=energy[b, shown],
-        ))
+        outcome = case_outcome(case, traj.scene, traj.stats.method, traj.stats.steps, seconds, traj.stats.failure,
+                               {name: float(values[b]) for name, values in drift.items()}, float(period[b]), int(reversals[b]),
+                               {name: float(values[b]) for name, values in found.items()})
+        if compared is None or case.index in compared:
+            outcome.t, outcome.omega, outcome.energy_drift = t, stacked.omega[b, shown], energy[b, shown]
+        outcomes.append(outcome)
     return outcomes
 
 
-def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError], choice: SharedChoice | None = None) -> list[CaseOutcome]:
+def case_outcome(case: Case, scene, method: str, steps: int, seconds: float, failure: str | None, drift: dict[str, float],
+                 period: float, reversals: int, observables: dict[str, float]) -> CaseOutcome:
+    """A case's outcome from what its run measured: its checks (``rotlab.checks.checks_of``) decide its status."""
+    from rotlab.checks import checks_of
+
+    checks = checks_of(scene, drift, (period, reversals), failure)
+    failed = [c for c in checks if not c.passed]
+    return CaseOutcome(
+        index=case.index,
+        values=case.values,
+        status="fail" if failed else "pass",
+        method=method,
+        steps=steps,
+        seconds=seconds,
+        drift=drift,
+        checks=[{"name": c.name, "passed": c.passed, "value": c.value, "limit": c.limit} for c in checks],
+        message="; ".join(c.message for c in failed),
+        observables=observables,
+    )
+
+
+def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError], choice: SharedChoice | None = None,
+                    compared: frozenset[int] | None = None) -> list[CaseOutcome]:
     """Cases one after the other, reported together (``outcomes_of``); never raises for a case:
     an invalid one or one whose run raised is an "error" outcome.  ``choice``: the method every case runs with (a sweep over initial states: ``shared_choice``),
-    else each case's own."""
+    else each case's own.  ``compared``: the cases that keep their series (None: all)."""
     from rotlab import api
     from rotlab.methods.registry import get_method
     from rotlab.scene.scene import build_scene
@@ -153,7 +179,7 @@ def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError
                                       message=f"{type(exc).__name__}: {exc}")
             continue
         runs.append((k, case, traj, time.perf_counter() - started))
-    for (k, *_), outcome in zip(runs, outcomes_of([run[1:] for run in runs])):
+    for (k, *_), outcome in zip(runs, outcomes_of([run[1:] for run in runs], compared)):
         outcomes[k] = outcome
     return outcomes
 
@@ -164,64 +190,117 @@ def run_sweep_case(case: Case, scenario: cfg.Scenario | InputError) -> CaseOutco
 
 
 def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case],
-                    choice: SharedChoice | None = None) -> list[CaseOutcome]:
+                    choice: SharedChoice | None = None, compared: frozenset[int] | None = None) -> list[CaseOutcome]:
     """A local worker's task: ``cases`` validated here (``case_scenario``) and run (``run_sweep_cases``)."""
-    return run_sweep_cases(cases, [case_scenario(raw, base, case, source) for case in cases], choice)
+    return run_sweep_cases(cases, [case_scenario(raw, base, case, source) for case in cases], choice, compared)
 
 
-def ensemble_eligible(p: SweepPlan) -> bool:
-    """Only initial conditions vary, every case is valid, the method is fixed-step rk4, and no
-    load is a compiled formula: numba's parallel loop cannot take the formulas' record nested in
-    the kernels' model (a TypeError while compiling), so those sweeps run case by case."""
-    if not _ensemble_shape(p.base.solver.method, p.base.sweep.parameters) or any(isinstance(s, InputError) for s in p.scenarios):
-        return False
+@dataclass(frozen=True)
+class EnsemblePlan:
+    """How a sweep over initial states runs in the ensemble kernels: the method (its name: a plan
+    travels to Dask workers), its settings, why."""
+
+    method_name: str
+    settings: Any
+    why: str
+
+    @property
+    def method(self) -> Any:
+        from rotlab.methods.registry import get_method
+
+        return get_method(self.method_name)
+
+
+def ensemble_plan(p: SweepPlan) -> EnsemblePlan | None:
+    """The ensemble plan of ``p``, or None when its cases run one by one: something other than
+    initial conditions varies, the method (as asked, or ``auto``'s one choice for all cases:
+    ``shared_choice``) has no ensemble kernel, some cases choose their own, the first case is
+    invalid, or the loads cannot run in a parallel kernel (``rotlab.ensemble.block.unsupported_scene``)."""
+    if not initial_only(p.base.sweep.parameters):
+        return None
+    from rotlab.ensemble.block import has_ensemble_kernel, unsupported_scene
+    from rotlab.methods.base import Settings
+    from rotlab.methods.registry import get_method
     from rotlab.scene.scene import build_scene
 
-    return build_scene(p.scenarios[0]).loads.expressions is None
+    first = case_scenario(p.raw, p.base, p.cases[0], p.source)
+    if isinstance(first, InputError):
+        return None
+    scene = build_scene(first)
+    solver = p.base.solver
+    if solver.method == "auto":
+        choice = shared_choice(p)
+        if choice is None or choice.own:
+            return None
+        method, settings, why = get_method(choice.method), choice.settings, choice.why
+    else:
+        method, settings, why = get_method(solver.method), Settings.of(solver), "as the file asks"
+    if not has_ensemble_kernel(method) or unsupported_scene(scene) is not None or method.unsupported(scene) is not None:
+        return None
+    return EnsemblePlan(method.name, settings, why)
 
 
-def _ensemble_shape(method: object, paths: Iterable[str]) -> bool:
-    """rk4, and only initial conditions swept: what the ensemble kernel runs."""
-    return method == "rk4" and initial_only(paths)
+def block_size(size: int, seconds: float) -> int:
+    """The next ensemble block: as many cases as the last block's pace fits in ``BLOCK_SECONDS``
+    (results.csv grows, and a stop signal is heard, about once a second), within
+    [``FIRST_BLOCK``, ``BLOCK_CASES``].  Blocks change no case's numbers, only when they are reported."""
+    return int(min(BLOCK_CASES, max(FIRST_BLOCK, size * BLOCK_SECONDS / max(seconds, 1e-3))))
 
 
-def run_ensemble(p: SweepPlan) -> list[CaseOutcome]:
-    """All cases in one call of the parallel ensemble kernel."""
-    from rotlab.core.ensemble import rk4_ensemble
-    from rotlab.methods.base import Settings, Solution
-    from rotlab.methods.registry import get_method
-    from rotlab.methods.stepping import initial_state
+def run_block_of_cases(p: SweepPlan, plan: EnsemblePlan, cases: list[Case], compared: frozenset[int] | None) -> list[CaseOutcome]:
+    """One ensemble kernel call for ``cases``: ``run_ensemble_chunk`` of the plan's file."""
+    return run_ensemble_chunk(p.raw, p.base, p.source, cases, plan, compared)
+
+
+def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case], plan: EnsemblePlan,
+                       compared: frozenset[int] | None) -> list[CaseOutcome]:
+    """One ensemble kernel call for ``cases`` (validated here: an invalid case is an "error"
+    outcome); importable by Dask workers, each task a block of cases."""
+    from rotlab.ensemble.block import run_block
+    from rotlab.methods.base import Solution
     from rotlab.scene.scene import build_scene
     from rotlab.trajectory import RunStats, build_trajectory
 
-    scenes = [build_scene(s) for s in p.scenarios]
-    first = scenes[0]
-    t = first.scenario.time.sample_times()
-    s = first.scenario.solver
-    settings = Settings.of(s)  # (rk4 has one order: solver.order plays no part)
-    method = get_method("rk4")
-    order = method.order(settings)
-    substeps = max(1, math.ceil(float(t[1] - t[0]) / min(method.step(sc, t, settings, order) for sc in scenes) - 1e-9))
-    y0 = np.array([initial_state(sc) for sc in scenes])
-    out = np.empty((len(scenes), t.shape[0], 8))
-    status = np.zeros(len(scenes), dtype=np.int64)
-    valid = np.zeros(len(scenes), dtype=np.int64)
-    rk4_ensemble(y0, t, out, substeps, s.max_steps, first.model, status, valid)
-    seconds = float("nan")  # one kernel call for all bodies: no per-case wall time to report
-    steps = (t.shape[0] - 1) * substeps
-    runs = []
-    for case, scene, k in zip(p.cases, scenes, range(len(scenes))):
-        failure = None if status[k] == 0 else f"state became non-finite before t = {t[valid[k]]:.9g} s"
-        solution = Solution(t=t, state=out[k], valid=int(valid[k]), steps=steps, failure=failure)
-        stats = RunStats("rk4", "ensemble kernel: only initial conditions vary", steps, 0, 4 * steps, seconds, failure,
-                         {"step": float(t[1] - t[0]) / substeps})
-        runs.append((case, build_trajectory(scene, solution, stats), seconds))
-    return outcomes_of(runs)
+    outcomes: dict[int, CaseOutcome] = {}
+    runnable: list[tuple[Case, Any]] = []
+    for case in cases:
+        scenario = case_scenario(raw, base, case, source)
+        if isinstance(scenario, InputError):
+            outcomes[case.index] = CaseOutcome(case.index, case.values, "error", message=str(scenario))
+        else:
+            runnable.append((case, build_scene(scenario)))
+    if runnable:
+        scenes = [scene for _, scene in runnable]
+        t = scenes[0].scenario.time.sample_times()
+        stride = max(1, math.ceil(t.shape[0] / COMPARISON_SAMPLES))
+        keep = [k for k, (case, _) in enumerate(runnable) if compared is None or case.index in compared]
+        given = [None if s.scenario.checks.flip_period is None else s.scenario.checks.flip_period.axis for s in scenes]
+        block = run_block(scenes, plan.method, plan.settings, t, keep, stride, given)
+        if isinstance(block, InputError):
+            raise block
+        name = plan.method.name
+        for k, (case, scene) in enumerate(runnable):
+            failure = block.failure[k]
+            if block.valid[k] == 0:  # refused before stepping (a step it cannot take)
+                outcomes[case.index] = CaseOutcome(case.index, case.values, "error", method=name, message=failure or "")
+                continue
+            drift = {n: float(v[k]) for n, v in block.max_drift.items()}
+            observables = {"flip_period_s": float(block.flip_period[k]), "max_nutation_deg": float(block.max_nutation_deg[k])}
+            outcome = case_outcome(case, scene, name, int(block.steps[k]), math.nan, failure, drift, float(block.flip_period[k]),
+                                   int(block.reversals[k]), observables)
+            if k in block.kept:
+                kept_t, rows = block.kept[k]
+                stats = RunStats(name, plan.why, int(block.steps[k]), int(block.rejected[k]), int(block.evaluations[k]), math.nan,
+                                 failure, block.details[k])
+                traj = build_trajectory(scene, Solution(t=kept_t, state=rows, valid=rows.shape[0]), stats)
+                outcome.t, outcome.omega, outcome.energy_drift = traj.t, traj.omega, traj.invariants["energy"]
+            outcomes[case.index] = outcome
+    return [outcomes[case.index] for case in cases]
 
 
 @dataclass
 class SweepRun:
-    outcomes: list[CaseOutcome]  # case order; a case that did not finish is an "error" saying why
+    outcomes: list[CaseOutcome]  # case order, when no ``on_outcomes`` took them; a case that did not finish is an "error" saying why
     how: str  # how the cases were run
     stopped: int | None = None  # SIGINT / SIGTERM that stopped the sweep
 
@@ -235,9 +314,9 @@ def run_sweep(p: SweepPlan, jobs: int = 2, dask_address: str | None = None) -> t
 def start_workers(config: Path, jobs: int) -> AbstractContextManager[WarmWorkers | None]:
     """``jobs`` local sweep workers (at most one per core this process may use) started now, for
     ``run_cases`` to use (a ``with`` block: the ones it does not use are stopped at its end) —
-    none when the file's sweep has the ensemble kernel's shape (it runs in this process) or the
-    file cannot be read (``plan`` says why).  More workers than cores start when the cases are
-    known, as before."""
+    none when the file asks for a method with an ensemble kernel and sweeps only initial
+    conditions (its cases run in this process), or the file cannot be read (``plan`` says why).
+    More workers than cores start when the cases are known, as before."""
     try:
         raw = read_toml(config)
     except InputError:
@@ -245,8 +324,12 @@ def start_workers(config: Path, jobs: int) -> AbstractContextManager[WarmWorkers
     sweep, solver = raw.get("sweep"), raw.get("solver")
     method = solver.get("method") if isinstance(solver, dict) else None
     parameters = sweep.get("parameters") if isinstance(sweep, dict) else None
-    if isinstance(parameters, dict) and _ensemble_shape(method, parameters):
-        return nullcontext()
+    if isinstance(parameters, dict) and initial_only(parameters) and isinstance(method, str) and method != "auto":
+        from rotlab.ensemble.block import has_ensemble_kernel
+        from rotlab.methods.registry import all_methods
+
+        if any(m.name == method and has_ensemble_kernel(m) for m in all_methods()):
+            return nullcontext()
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     return WarmWorkers(run_sweep_chunk, min(jobs, cores), WORKER_MODULES)
 
@@ -257,51 +340,93 @@ def chunk_size(cases: int, workers: int) -> int:
 
 
 def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, timeout: float | None = None,
-              retries: int = 0, warm: WarmWorkers | None = None) -> SweepRun:
-    """Every case: the ensemble kernel when eligible, else local worker processes or the Dask
-    cluster at ``dask_address``.  Local workers take the cases in chunks (``chunk_size``),
-    validate and run them and report them together; a chunk whose worker died is run again one
-    case per task (with ``retries``: the chunk's attempt, which cannot name the case that was
-    running, is not counted), so a case that kills its worker costs that case only.  With a per-case
-    ``timeout``, one case per task from the start (its clock is the case's).  ``warm``: local
-    workers started for ``run_sweep_chunk`` while the sweep was planned (``start_workers``)."""
-    ensemble = dask_address is None and timeout is None and ensemble_eligible(p)
-    if warm is not None and (ensemble or dask_address is not None):
+              retries: int = 0, warm: WarmWorkers | None = None, on_outcomes: Callable[[list[CaseOutcome]], None] | None = None,
+              compared: frozenset[int] | None = None) -> SweepRun:
+    """Every case: the ensemble kernels when ``ensemble_plan`` allows, else local worker processes
+    or the Dask cluster at ``dask_address``.  Local workers take the cases in chunks
+    (``chunk_size``), validate and run them and report them together; a chunk whose worker died is
+    run again one case per task (with ``retries``: the chunk's attempt, which cannot name the case
+    that was running, is not counted), so a case that kills its worker costs that case only.  With
+    a per-case ``timeout``, one case per task from the start (its clock is the case's).  ``warm``:
+    local workers started for ``run_sweep_chunk`` while the sweep was planned (``start_workers``).
+    ``on_outcomes``: given the outcomes as cases finish (else they are returned, in case order);
+    ``compared``: the cases that keep their series (default: ``compared_cases`` when the outcomes
+    go to ``on_outcomes``, else every case)."""
+    if compared is None and on_outcomes is not None:
+        compared = compared_cases(len(p.cases))
+    collected: list[CaseOutcome] = []
+    deliver = on_outcomes or collected.extend
+    plan = ensemble_plan(p) if dask_address is None and timeout is None else None
+    if warm is not None and (plan is not None or dask_address is not None):
         warm.release()  # the cases run elsewhere: the warm workers would only take the cores
-    if ensemble:
-        started = time.perf_counter()
-        outcomes = run_ensemble(p)
-        return SweepRun(outcomes, f"ensemble kernel (numba parallel over bodies; {time.perf_counter() - started:.3g} s for all cases)")
+    if plan is not None:
+        started, done, stopped, size = time.perf_counter(), 0, None, FIRST_BLOCK
+        with signals_raise_stopped():
+            try:
+                while done < len(p.cases):
+                    block_started = time.perf_counter()
+                    block = p.cases[done:done + size]
+                    deliver(run_block_of_cases(p, plan, block, compared))
+                    done += len(block)
+                    size = block_size(size, time.perf_counter() - block_started)
+            except Stopped as stop:  # (between kernel calls: a block is not cut short)
+                stopped = stop.signum
+        if stopped is not None:
+            note = f"not finished (the sweep received {signal.Signals(stopped).name})"
+            deliver([CaseOutcome(case.index, case.values, "error", message=note) for case in p.cases[done:]])
+        how = (f"ensemble kernels ({plan.method_name}, numba parallel over cases, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
+               f"{time.perf_counter() - started:.3g} s for all cases; {plan.why})")
+        return SweepRun(sorted(collected, key=lambda o: o.index), how, stopped)
     if dask_address is not None:
         from rotlab.cluster import run_on_dask
 
-        run = run_on_dask(run_sweep_cases, [([case], [scenario]) for case, scenario in zip(p.cases, p.scenarios)], dask_address,
-                          retries=retries)
-        outcomes, _ = collect_outcomes([[case] for case in p.cases], run)
-        return SweepRun([outcomes[case.index] for case in p.cases], f"Dask cluster at {dask_address}", run.stopped)
+        dask_plan = ensemble_plan(p)
+        size = BLOCK_CASES if dask_plan is not None else CHUNK_CASES
+        chunks = [p.cases[i:i + size] for i in range(0, len(p.cases), size)]
+        if dask_plan is not None:  # each task a block of cases through the ensemble kernels
+            run = run_on_dask(run_ensemble_chunk, [(p.raw, p.base, p.source, chunk, dask_plan, compared) for chunk in chunks],
+                              dask_address, retries=retries)
+        else:
+            run = run_on_dask(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, None, compared) for chunk in chunks],
+                              dask_address, retries=retries)
+        outcomes, _ = collect_outcomes(chunks, run)
+        deliver([outcomes[case.index] for case in p.cases])
+        how = f"Dask cluster at {dask_address}" + (f", ensemble kernels ({dask_plan.method_name}), {size} cases a task" if dask_plan else "")
+        return SweepRun(sorted(collected, key=lambda o: o.index), how, run.stopped)
     workers = max(1, min(jobs, len(p.cases)))
     size = 1 if timeout is not None else chunk_size(len(p.cases), workers)
     # only initial states vary: one method for all cases, chosen here for the most demanding (not with
     # a per-case --timeout: each case is then a run of its own, as `rotlab run` would make it)
     choice = shared_choice(p) if timeout is None and initial_only(p.base.sweep.parameters) else None
     chunks = [p.cases[i:i + size] for i in range(0, len(p.cases), size)]
-    run = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, choice) for chunk in chunks], jobs,
-                    timeout=timeout, retries=retries if size == 1 else 0, preload=WORKER_MODULES, warm=warm)
+
+    def finished(end: TaskEnd) -> None:  # a chunk's outcomes as soon as it ends; its payload is then dropped
+        if end.failure is None:
+            deliver(end.result)
+            end.result = _DELIVERED
+
+    run = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, choice, compared) for chunk in chunks], jobs,
+                    timeout=timeout, retries=retries if size == 1 else 0, preload=WORKER_MODULES, warm=warm, on_end=finished)
     outcomes, again = collect_outcomes(chunks, run)
     stopped = run.stopped
     if size > 1 and again and stopped is None:  # a chunk's worker died: its cases one by one
-        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], choice) for case in again], jobs,
-                          retries=retries, preload=WORKER_MODULES)
+        rerun = run_tasks(run_sweep_chunk, [(p.raw, p.base, p.source, [case], choice, compared) for case in again], jobs,
+                          retries=retries, preload=WORKER_MODULES, on_end=finished)
         outcomes.update(collect_outcomes([[case] for case in again], rerun)[0])
         stopped = rerun.stopped
+    deliver(sorted(outcomes.values(), key=lambda o: o.index))
     how = f"{workers} local worker process{'es' if workers > 1 else ''}" + (f", {size} cases a task" if size > 1 else "")
     if choice is not None:
         how += f"; only initial states vary, one method for {'the' if choice.own else 'all'} cases: {choice.label}: {choice.why}"
-    return SweepRun([outcomes[case.index] for case in p.cases], how, stopped)
+    return SweepRun(sorted(collected, key=lambda o: o.index), how, stopped)
+
+
+_DELIVERED = object()  # a task's result once its outcomes were delivered
 
 
 def collect_outcomes(chunks: list[list[Case]], run: TaskRun) -> tuple[dict[int, CaseOutcome], list[Case]]:
-    """(case index → outcome, the cases of tasks that failed): task k ran ``chunks[k]``.  A failed
+    """(case index → outcome, the cases of tasks that failed): task k ran ``chunks[k]`` (the outcomes
+    of a task already delivered as it ended are not among them).  A failed
     task (dead worker, timeout) or one that never finished (the run was stopped) gives each of
     its cases an "error" outcome that says so."""
     ended = {e.index: e for e in run.ends}
@@ -311,7 +436,8 @@ def collect_outcomes(chunks: list[list[Case]], run: TaskRun) -> tuple[dict[int, 
     for k, chunk in enumerate(chunks):
         end = ended.get(k)
         if end is not None and end.failure is None:
-            outcomes.update((outcome.index, outcome) for outcome in end.result)
+            if end.result is not _DELIVERED:
+                outcomes.update((outcome.index, outcome) for outcome in end.result)
             continue
         if end is not None:
             failed += chunk
