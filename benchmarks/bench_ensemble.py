@@ -1,67 +1,110 @@
-"""Ensemble throughput: body-steps per second of the parallel RK4 ensemble kernel on the free
-body, against the single-body kernel in a loop (same work, one run).
+"""Ensemble throughput: every method with an ensemble kernel, many cases of one scene per call
+(``rotlab.ensemble``, observables reduced as each case runs), on 1 and 2 threads, against the same
+cases each solved alone (``Method.solve``, the single run's integration, without its report).
 
-    python benchmarks/bench_ensemble.py [--bodies 2000] [--steps 2000] [--repeats 5]
+    python benchmarks/bench_ensemble.py [--cases 256] [--repeats 3]
+
+Problems: the free body of configs/sweep_flip.toml (20 s at 200 samples/s, ω₀ dispersed as the
+sweep disperses it) and the heavy top of configs/lagrange.toml (10 s), each case from a perturbed ω₀.
+Fixed-step methods at a given step (rk4, splitting, rkmk4: h = 1e-3 s on the free body, 1e-4 s on the
+top; dmv at order 8, h = 5e-3 s), dop853 at the file's rtol.  Columns: per-case solve time alone
+(median of the first 16 cases), the ensemble's per-case time on 1 and 2 threads (median of
+``--repeats`` calls), their ratio to the solve alone, the 2-thread speed-up, body-steps/s and
+cases/s on 2 threads.  States are bit-identical to the solve alone (tests/test_ensemble.py).
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import time
+from pathlib import Path
 
 import numba
 import numpy as np
 
-from rotlab.config import parse_scenario
-from rotlab.core.ensemble import rk4_ensemble
-from rotlab.core.rk4 import rk4_advance
+from rotlab.config.loader import parse_scenario, read_toml
+from rotlab.ensemble.block import run_block
+from rotlab.methods.base import Settings
+from rotlab.methods.registry import get_method
 from rotlab.scene.scene import build_scene
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+PROBLEMS = {  # name → (file, changes, spread of ω₀ (rad/s), per method: solver settings)
+    "free body (sweep_flip)": ("sweep_flip.toml", {}, 0.05, {
+        "rk4": {"step": 1e-3}, "splitting": {"step": 1e-3}, "rkmk4": {"step": 1e-3}, "dmv": {"step": 5e-3, "order": 8},
+        "dop853": {}}),
+    "heavy top (lagrange, 10 s)": ("lagrange.toml", {"end": 10.0}, 0.5, {
+        "rk4": {"step": 1e-4}, "splitting": {"step": 1e-4}, "rkmk4": {"step": 1e-4}, "dop853": {}}),
+}
+
+
+def scenes_of(name: str, method: str, cases: int) -> list:
+    file, changes, spread, settings = PROBLEMS[name]
+    raw = read_toml(CONFIGS / file)
+    raw.pop("sweep", None)
+    raw.pop("checks", None)
+    raw["time"].update(changes)
+    raw["solver"] = {"method": method, **{k: v for k, v in raw.get("solver", {}).items() if k in ("rtol", "atol")},
+                     **settings[method]}
+    rng = np.random.default_rng(1)
+    scenes = []
+    for _ in range(cases):
+        case = copy.deepcopy(raw)
+        case["initial"]["omega"] = [float(w + spread * rng.uniform(-1.0, 1.0)) for w in raw["initial"]["omega"]]
+        scenes.append(build_scene(parse_scenario(case, source=file)))
+    return scenes
+
+
+def median_seconds(fn, repeats: int) -> float:
+    fn()  # compile / load
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - started)
+    return float(np.median(times))
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--bodies", type=int, default=2000)
-    parser.add_argument("--steps", type=int, default=2000)
-    parser.add_argument("--repeats", type=int, default=5)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--cases", type=int, default=256)
+    parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
+    threads = numba.get_num_threads()
+    print(f"{args.cases} cases per ensemble call; numba threads available: {threads}")
+    header = (f"{'problem':28} {'method':10} {'alone ms/case':>13} {'ens 1 thr':>10} {'ens 2 thr':>10} {'1 thr/alone':>11} "
+              f"{'2 thr speed-up':>14} {'M body-steps/s':>14} {'cases/s':>9}")
+    print(header)
+    print("-" * len(header))
+    for name, (_, _, _, methods) in PROBLEMS.items():
+        for method_name in methods:
+            scenes = scenes_of(name, method_name, args.cases)
+            method = get_method(method_name)
+            settings = Settings.of(scenes[0].scenario.solver)
+            t = scenes[0].scenario.time.sample_times()
+            alone = []
+            for scene in scenes[:16]:
+                method.solve(scene, t, settings, None)
+                started = time.perf_counter()
+                method.solve(scene, t, settings, None)
+                alone.append(time.perf_counter() - started)
+            per_case_alone = float(np.median(alone))
+            results = {}
 
-    scene = build_scene(parse_scenario({"body": {"principal_moments": [1.0, 2.0, 2.5]}, "time": {"end": 1.0}}))
-    model = scene.model
-    rng = np.random.default_rng(0)
-    y0 = np.zeros((args.bodies, 8))
-    y0[:, 0] = 1.0
-    y0[:, 4:7] = rng.normal(size=(args.bodies, 3))
-    samples = 11
-    times = np.linspace(0.0, 1.0, samples)
-    substeps = args.steps // (samples - 1)
-    out = np.empty((args.bodies, samples, 8))
-    status = np.zeros(args.bodies, dtype=np.int64)
-    valid = np.zeros(args.bodies, dtype=np.int64)
-    body_steps = args.bodies * substeps * (samples - 1)
+            def ensemble() -> None:
+                results["block"] = run_block(scenes, method, settings, t, [], 1, [None] * len(scenes))
 
-    def ensemble():
-        rk4_ensemble(y0, times, out, substeps, 10**12, model, status, valid)
-
-    def serial():
-        for b in range(args.bodies):
-            y = y0[b].copy()
-            rk4_advance(y, times, out[b], 1, substeps, 10**12, model)
-
-    rows = []
-    for name, fn in (("rk4 ensemble (prange)", ensemble), ("rk4 single-body kernel, Python loop", serial)):
-        fn()
-        times_s = []
-        for _ in range(args.repeats):
-            started = time.perf_counter()
-            fn()
-            times_s.append(time.perf_counter() - started)
-        rows.append((name, float(np.median(times_s))))
-    print(f"free body, {args.bodies:,} bodies × {substeps * (samples - 1):,} steps = {body_steps:,} body-steps; "
-          f"numba threads: {numba.get_num_threads()}")
-    print(f"{'kernel':40} {'median s':>10} {'M body-steps/s':>16}")
-    for name, sec in rows:
-        print(f"{name:40} {sec:10.4f} {body_steps / sec / 1e6:16.1f}")
-    print(f"ensemble speed-up over the serial loop: {rows[1][1] / rows[0][1]:.2f}x   (target ≥ 20 M body-steps/s)")
+            per_thread = {}
+            for n in (1, min(2, threads)):
+                numba.set_num_threads(n)
+                per_thread[n] = median_seconds(ensemble, args.repeats) / len(scenes)
+            numba.set_num_threads(threads)
+            steps = int(np.sum(results["block"].steps))
+            two = per_thread[min(2, threads)]
+            print(f"{name:28} {method_name:10} {1e3 * per_case_alone:13.3f} {1e3 * per_thread[1]:10.3f} {1e3 * two:10.3f} "
+                  f"{per_thread[1] / per_case_alone:11.2f} {per_thread[1] / two:14.2f} "
+                  f"{steps / (two * len(scenes)) / 1e6:14.1f} {1.0 / two:9.0f}")
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import parallel_chunksize
 
 from rotlab.core.kernel_status import NONFINITE, OK
 from rotlab.ensemble import observe as ob
@@ -120,8 +121,9 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     failure: list[str | None] = [None] * b
     if method.adaptive:
         counters = np.zeros((b, 3), dtype=np.int64)
-        kernels.dop853_ensemble(y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, case, shared,
-                                applies, forces, status, valid, counters, last, acc, where, stride, kept, kept_t, kept_count)
+        with parallel_chunksize(1):  # (cases of unequal cost: each thread takes the next case)
+            kernels.dop853_ensemble(y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, case, shared,
+                                    applies, forces, status, valid, counters, last, acc, where, stride, kept, kept_t, kept_count)
         steps, rejected, evaluations = counters[:, 0].copy(), counters[:, 1].copy(), counters[:, 2].copy()
         details = [{"rtol": settings.rtol, "atol": settings.atol}] * b
     else:
@@ -138,9 +140,10 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
                 failure[k] = str(exc)
                 details.append({})
         steps = np.zeros(b, dtype=np.int64)
-        kernels.fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
-                                    case, shared, applies, forces, status, valid, steps, last, acc, where, stride, kept, kept_t,
-                                    kept_count)
+        with parallel_chunksize(1):
+            kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, scene.model,
+                                            method.kernel_args(scene, order), case, shared, applies, forces, status, valid, steps,
+                                            last, acc, where, stride, kept, kept_t, kept_count)
         rejected = np.zeros(b, dtype=np.int64)
         evaluations = steps * method.evaluations_per_step(scene, order)
     for k in range(b):

@@ -23,6 +23,25 @@ from rotlab.core.kernel_status import OK
 from rotlab.ensemble.observe import observe_rows
 
 WINDOW = 4096  # samples per fixed-step kernel call within a case
+_ENTRIES: dict[tuple, object] = {}  # (method, argument types) → the compiled entry of ``fixed_step_ensemble``
+
+
+def run_fixed_step_ensemble(method: str, *args: object) -> None:
+    """``fixed_step_ensemble(method, *args)``.  A call through the dispatcher with a string types
+    the whole kernel before ``literally`` asks for the literal's specialization (~0.1 s a call):
+    after the first call of each (method, argument types), the specialization's compiled entry
+    is called directly (numba's ``Dispatcher.overloads``; the dispatcher again should it be missing)."""
+    from numba import typeof
+
+    key = (method, tuple(typeof(a) for a in args))
+    entry = _ENTRIES.get(key)
+    if entry is not None:
+        entry(method, *args)
+        return
+    fixed_step_ensemble(method, *args)
+    for signature, compiled in getattr(fixed_step_ensemble, "overloads", {}).items():
+        if signature[0] == types.literal(method) and tuple(signature[1:]) == key[1]:
+            _ENTRIES[key] = compiled.entry_point
 
 
 def advance_of(method, y, times, rows, i, substeps, budget, model, extra):
@@ -88,9 +107,10 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
         if substeps[b] <= 0:
             continue
         y = y0[b].copy()
+        folded = np.empty(acc.shape[1])  # this case's own (a row of ``acc`` shares cache lines with its neighbours')
         rows = np.empty((min(n, WINDOW + 1), STATE_SIZE))
         store_row(rows, 0, y)
-        observe_rows(times, rows, 0, 1, True, case[b], shared, applies, forces, acc[b])
+        observe_rows(times, rows, 0, 1, True, case[b], shared, applies, forces, folded)
         count = np.zeros(1, dtype=np.int64)
         if keep[b] >= 0:
             _keep(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
@@ -101,7 +121,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
             taken += done
             if code != OK:
                 j = _finite_rows(rows, 1, j)
-            observe_rows(times[lo:hi], rows, 1, j, False, case[b], shared, applies, forces, acc[b])
+            observe_rows(times[lo:hi], rows, 1, j, False, case[b], shared, applies, forces, folded)
             if keep[b] >= 0:
                 _keep(rows, times[lo:hi], 1, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
             i = lo + j
@@ -112,6 +132,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
             _keep_last(rows[0], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
         status[b], valid[b], steps[b] = code, i, taken
         store_row(last, b, rows[0])
+        store_row(acc, b, folded)
         kept_count[b] = count[0]
 
 
@@ -124,17 +145,22 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, case, shared
         y = y0[b].copy()
         rows = np.empty((n, STATE_SIZE))
         store_row(rows, 0, y)
+        counted = np.zeros(3, dtype=np.int64)  # (this case's own, as ``folded``: no cache line shared with another case's)
         code, i, t, h, attempts = OK, 1, times[0], 0.0, 0
         while i < n and attempts < max_steps:  # in calls of ``chunk`` attempts, as ``stepping.run_chunks`` makes them
-            before = counters[b, 0] + counters[b, 1]
+            before = counted[0] + counted[1]
             code, i, t, h = dop853_advance(y, t, h, times, rows, i, times[n - 1], rtol, atol, min(chunk, max_steps - attempts),
-                                           model, counters[b])
-            attempts += counters[b, 0] + counters[b, 1] - before
+                                           model, counted)
+            attempts += counted[0] + counted[1] - before
             if code != OK:
                 break
         if code != OK:
             i = _finite_rows(rows, 1, i)
-        observe_rows(times, rows, 0, i, True, case[b], shared, applies, forces, acc[b])
+        folded = np.empty(acc.shape[1])
+        observe_rows(times, rows, 0, i, True, case[b], shared, applies, forces, folded)
+        store_row(acc, b, folded)
+        for m in range(3):
+            counters[b, m] = counted[m]
         count = np.zeros(1, dtype=np.int64)
         if keep[b] >= 0:
             _keep(rows, times, 0, i, 0, stride, kept[keep[b]], kept_t[keep[b]], count)

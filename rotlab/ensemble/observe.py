@@ -7,7 +7,7 @@ The same quantities a sweep reports from a stored trajectory (``rotlab.sweep.obs
                change of c between samples k, k+1 is a reversal at t_k − c_k (t_{k+1} − t_k)/(c_{k+1} − c_k);
                period = 2 (last − first)/(reversals − 1), NaN with fewer than ``MIN_REVERSALS``
     nutation:  cos ϑ = (R(Λ) e)·d = (2 q0² − 1)(e·d) + 2 (q·e)(q·d) + 2 q0 q·(e × d); max ϑ = arccos min cos ϑ
-    drifts:    max |drift| of each invariant of ``rotlab.invariants.TABLE`` (its formulas, ``drift_of``),
+    drifts:    max |drift| of each invariant of ``rotlab.invariants.TABLE`` (its formulas, ``fold_drifts``),
                from the values at the first sample: L = I ω, L_space = R(Λ) L, T = ½ ω·L,
                V = −Σ F·(R(Λ) p), H = T + V − W.
 
@@ -27,11 +27,11 @@ from numba import njit
 from rotlab import invariants
 from rotlab.core.torques import F_FORCE, F_POINT
 
-# the invariants in the order of ``drift_of``'s branches; checked against the table at import
+# the invariants in the order of ``fold_drifts``'s branches; checked against the table at import
 INVARIANTS = ("energy", "quaternion_norm", "L_norm", "L_space", "L_vertical", "L_symmetry")
 if INVARIANTS != invariants.NAMES:
     raise TypeError(f"rotlab.ensemble.observe reduces {INVARIANTS}, the invariants table has {invariants.NAMES}: "
-                    "give drift_of a branch for each invariant, in the table's order")
+                    "give fold_drifts a branch for each invariant, in the table's order")
 
 CASE_FLIP, CASE_E, CASE_D, CASE_H0, CASE_SCALE, CASE_L0, CASE_LS0, CASE_LNORM = 0, 3, 6, 9, 10, 11, 14, 17
 CASE_COLUMNS = 18
@@ -55,43 +55,42 @@ def _to_space(u0, u1, u2, u3, x, y, z):
     return (x + u0 * t1) + (u2 * t3 - u3 * t2), (y + u0 * t2) + (u3 * t1 - u1 * t3), (z + u0 * t3) + (u1 * t2 - u2 * t1)
 
 
-@njit(cache=True)
-def drift_of(k, row, case, shared, forces):
-    """Relative drift of invariant ``INVARIANTS[k]`` at the state ``row`` (``rotlab.invariants``)."""
-    q0, q1, q2, q3 = row[0], row[1], row[2], row[3]
-    norm = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-    if k == 1:
-        return norm - 1.0
-    u0, u1, u2, u3 = q0 / norm, q1 / norm, q2 / norm, q3 / norm
+@njit(cache=True, inline="always")
+def fold_drifts(row, norm, u0, u1, u2, u3, case, shared, applies, forces, acc, drift):
+    """acc[ACC_DRIFT + k] ← max(itself, |drift of invariant k at the state ``row``|) for each
+    invariant the scene has (``INVARIANTS`` order; the formulas of ``rotlab.invariants``); |Λ|
+    and Λ/|Λ| given; ``drift``: scratch of len(INVARIANTS)."""
     l1, l2, l3 = row[4] * shared[SHARED_MOMENTS], row[5] * shared[SHARED_MOMENTS + 1], row[6] * shared[SHARED_MOMENTS + 2]
     scale_l = case[CASE_LNORM]
-    if k == 0:
+    if applies[0]:  # energy: (T + V − W − H₀)/scale
         kinetic = 0.5 * (row[4] * l1 + row[5] * l2 + row[6] * l3)
         potential = 0.0
         for f in range(forces.shape[0]):
             ax, ay, az = _to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
             potential -= ax * forces[f, F_FORCE] + ay * forces[f, F_FORCE + 1] + az * forces[f, F_FORCE + 2]
         total = kinetic + potential if forces.shape[0] else kinetic
-        return _relative(total - row[7] - case[CASE_H0], case[CASE_SCALE])
-    if k == 2:
-        return _relative(math.sqrt(l1 * l1 + l2 * l2 + l3 * l3) - scale_l, scale_l)
-    if k == 5:
-        s = shared[SHARED_SYMMETRY:SHARED_SYMMETRY + 3]
-        return _relative((l1 - case[CASE_L0]) * s[0] + (l2 - case[CASE_L0 + 1]) * s[1] + (l3 - case[CASE_L0 + 2]) * s[2], scale_l)
-    s1, s2, s3 = _to_space(u0, u1, u2, u3, l1, l2, l3)
-    d1, d2, d3 = s1 - case[CASE_LS0], s2 - case[CASE_LS0 + 1], s3 - case[CASE_LS0 + 2]
-    if k == 3:
-        return _relative(math.sqrt(d1 * d1 + d2 * d2 + d3 * d3), scale_l)
-    up = shared[SHARED_UP:SHARED_UP + 3]
-    return _relative(d1 * up[0] + d2 * up[1] + d3 * up[2], scale_l)
+        drift[0] = _relative(total - row[7] - case[CASE_H0], case[CASE_SCALE])
+    drift[1] = norm - 1.0  # quaternion_norm
+    if applies[2]:  # L_norm
+        drift[2] = _relative(math.sqrt(l1 * l1 + l2 * l2 + l3 * l3) - scale_l, scale_l)
+    if applies[3] or applies[4]:
+        s1, s2, s3 = _to_space(u0, u1, u2, u3, l1, l2, l3)
+        d1, d2, d3 = s1 - case[CASE_LS0], s2 - case[CASE_LS0 + 1], s3 - case[CASE_LS0 + 2]
+        if applies[3]:  # L_space
+            drift[3] = _relative(math.sqrt(d1 * d1 + d2 * d2 + d3 * d3), scale_l)
+        if applies[4]:  # L_vertical
+            drift[4] = _relative(d1 * shared[SHARED_UP] + d2 * shared[SHARED_UP + 1] + d3 * shared[SHARED_UP + 2], scale_l)
+    if applies[5]:  # L_symmetry
+        sym = shared[SHARED_SYMMETRY:SHARED_SYMMETRY + 3]
+        drift[5] = _relative((l1 - case[CASE_L0]) * sym[0] + (l2 - case[CASE_L0 + 1]) * sym[1] + (l3 - case[CASE_L0 + 2]) * sym[2], scale_l)
+    for k in range(len(INVARIANTS)):
+        if applies[k]:
+            acc[ACC_DRIFT + k] = max(acc[ACC_DRIFT + k], abs(drift[k]))
 
 
-@njit(cache=True)
-def _nutation_cosine(row, case):
-    """cos ϑ = (R(Λ) e)·d (``rotlab.core.quaternion.projection_array``), clipped to [−1, 1]."""
-    q0, q1, q2, q3 = row[0], row[1], row[2], row[3]
-    norm = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-    u0, u1, u2, u3 = q0 / norm, q1 / norm, q2 / norm, q3 / norm
+@njit(cache=True, inline="always")
+def _nutation_cosine(u0, u1, u2, u3, case):
+    """cos ϑ = (R(Λ) e)·d (``rotlab.core.quaternion.projection_array``) for the unit Λ, clipped to [−1, 1]."""
     e, d = case[CASE_E:CASE_E + 3], case[CASE_D:CASE_D + 3]
     ed = e[0] * d[0] + e[1] * d[1] + e[2] * d[2]
     qe = u1 * e[0] + u2 * e[1] + u3 * e[2]
@@ -105,6 +104,7 @@ def _nutation_cosine(row, case):
 def observe_rows(times, rows, start, stop, first, case, shared, applies, forces, acc):
     """Fold samples ``start … stop − 1`` of ``rows`` (at ``times``) into ``acc``; ``first``: row
     ``start`` is the case's first sample (it opens ``acc``)."""
+    drift = np.empty(len(INVARIANTS))
     for i in range(start, stop):
         row = rows[i]
         t = times[i]
@@ -125,10 +125,11 @@ def observe_rows(times, rows, start, stop, first, case, shared, applies, forces,
             acc[ACC_REVERSALS] += 1.0
         acc[ACC_PREV_C] = c
         acc[ACC_PREV_T] = t
-        acc[ACC_MIN_COS] = min(acc[ACC_MIN_COS], _nutation_cosine(row, case))
-        for k in range(len(INVARIANTS)):
-            if applies[k]:
-                acc[ACC_DRIFT + k] = max(acc[ACC_DRIFT + k], abs(drift_of(k, row, case, shared, forces)))
+        q0, q1, q2, q3 = row[0], row[1], row[2], row[3]
+        norm = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)  # (``rotlab.rows.unit_rows``' order)
+        u0, u1, u2, u3 = q0 / norm, q1 / norm, q2 / norm, q3 / norm
+        acc[ACC_MIN_COS] = min(acc[ACC_MIN_COS], _nutation_cosine(u0, u1, u2, u3, case))
+        fold_drifts(row, norm, u0, u1, u2, u3, case, shared, applies, forces, acc, drift)
 
 
 @njit(cache=True)
