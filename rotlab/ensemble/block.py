@@ -156,7 +156,8 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
         elif valid[k] < n:
             failure[k] = f"step budget of {settings.max_steps:,} steps exhausted at t = {t[valid[k] - 1]:.9g} s (raise solver.max_steps)"
     ran = valid > 0
-    drift = {name: np.where(ran, acc[:, ob.ACC_DRIFT + k], np.nan) for k, name in enumerate(ob.INVARIANTS) if applies[k]}
+    folded = ob.max_drifts(acc, case)
+    drift = {name: np.where(ran, folded[:, k], np.nan) for k, name in enumerate(ob.INVARIANTS) if applies[k]}
     period = np.array([ob.flip_period(acc[k]) if ran[k] else math.nan for k in range(b)])
     nutation = np.where(ran, np.degrees(np.arccos(np.where(ran, acc[:, ob.ACC_MIN_COS], 1.0))), np.nan)
     kept_rows = {k: (kept_t[where[k], :kept_count[k]].copy(), kept[where[k], :kept_count[k]].copy()) for k in keep if ran[k]}

@@ -21,6 +21,7 @@ from rotlab.core.dop853 import dop853_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK
 from rotlab.ensemble.observe import observe_rows
+from rotlab.scene.loads import Model
 
 WINDOW = 4096  # samples per fixed-step kernel call within a case
 _ENTRIES: dict[tuple, object] = {}  # (method, argument types) → the compiled entry of ``fixed_step_ensemble``
@@ -61,6 +62,26 @@ def _advance_of(method, y, times, rows, i, substeps, budget, model, extra):
         return kernel(y, times, rows, i, substeps, budget, model, *extra)
 
     return call
+
+
+def own(x):
+    """A copy of an array (anything else as it is)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(own)
+def _own(x):
+    if isinstance(x, types.Array):
+        return lambda x: x.copy()
+    return lambda x: x
+
+
+@njit(cache=True)
+def own_model(model):
+    """A copy of ``model``'s arrays for one thread: numba counts references to an array passed to a
+    function with an atomic write, and two threads passing the same array contend for its cache line."""
+    return Model(own(model.euler), own(model.breaks), own(model.forces), own(model.terms), own(model.tables),
+                 own(model.table_t), own(model.table_v), model.damping, model.expressions, model.user)
 
 
 @njit(cache=True)
@@ -107,6 +128,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
         if substeps[b] <= 0:
             continue
         y = y0[b].copy()
+        mine = own_model(model)
         folded = np.empty(acc.shape[1])  # this case's own (a row of ``acc`` shares cache lines with its neighbours')
         rows = np.empty((min(n, WINDOW + 1), STATE_SIZE))
         store_row(rows, 0, y)
@@ -117,7 +139,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
         code, i, taken = OK, 1, 0
         while i < n:
             lo, hi = i - 1, min(n, i + WINDOW)
-            code, j, done = advance_of(literally(method), y, times[lo:hi], rows, 1, substeps[b], max_steps - taken, model, extra)
+            code, j, done = advance_of(literally(method), y, times[lo:hi], rows, 1, substeps[b], max_steps - taken, mine, extra)
             taken += done
             if code != OK:
                 j = _finite_rows(rows, 1, j)
@@ -145,12 +167,13 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, case, shared
         y = y0[b].copy()
         rows = np.empty((n, STATE_SIZE))
         store_row(rows, 0, y)
+        mine = own_model(model)
         counted = np.zeros(3, dtype=np.int64)  # (this case's own, as ``folded``: no cache line shared with another case's)
         code, i, t, h, attempts = OK, 1, times[0], 0.0, 0
         while i < n and attempts < max_steps:  # in calls of ``chunk`` attempts, as ``stepping.run_chunks`` makes them
             before = counted[0] + counted[1]
             code, i, t, h = dop853_advance(y, t, h, times, rows, i, times[n - 1], rtol, atol, min(chunk, max_steps - attempts),
-                                           model, counted)
+                                           mine, counted)
             attempts += counted[0] + counted[1] - before
             if code != OK:
                 break

@@ -43,12 +43,6 @@ MIN_REVERSALS = 3  # as rotlab.checks.MIN_REVERSALS (checked by tests/test_ensem
 
 
 @njit(cache=True, inline="always")
-def _relative(x, scale):
-    """x / scale, or x where the scale is zero (``rotlab.invariants._relative``)."""
-    return x / scale if scale > 0.0 else x
-
-
-@njit(cache=True, inline="always")
 def _to_space(u0, u1, u2, u3, x, y, z):
     """R(Λ) v in ``rotlab.core.quaternion.rotate_to_space_array``'s order."""
     t1, t2, t3 = 2.0 * (u2 * z - u3 * y), 2.0 * (u3 * x - u1 * z), 2.0 * (u1 * y - u2 * x)
@@ -57,9 +51,10 @@ def _to_space(u0, u1, u2, u3, x, y, z):
 
 @njit(cache=True, inline="always")
 def fold_drifts(row, norm, u0, u1, u2, u3, case, shared, applies, forces, acc, drift):
-    """acc[ACC_DRIFT + k] ← max(itself, |drift of invariant k at the state ``row``|) for each
-    invariant the scene has (``INVARIANTS`` order; the formulas of ``rotlab.invariants``); |Λ|
-    and Λ/|Λ| given; ``drift``: scratch of len(INVARIANTS)."""
+    """acc[ACC_DRIFT + k] ← max(itself, |drift of invariant k at the state ``row``| × its scale) for
+    each invariant the scene has (``INVARIANTS`` order; the formulas of ``rotlab.invariants``):
+    the division by the scale is left to ``max_drifts`` (once, not once a sample: max |x|/s is
+    max |x/s| for s > 0, bit for bit).  |Λ| and Λ/|Λ| given; ``drift``: scratch of len(INVARIANTS)."""
     l1, l2, l3 = row[4] * shared[SHARED_MOMENTS], row[5] * shared[SHARED_MOMENTS + 1], row[6] * shared[SHARED_MOMENTS + 2]
     scale_l = case[CASE_LNORM]
     if applies[0]:  # energy: (T + V − W − H₀)/scale
@@ -69,20 +64,20 @@ def fold_drifts(row, norm, u0, u1, u2, u3, case, shared, applies, forces, acc, d
             ax, ay, az = _to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
             potential -= ax * forces[f, F_FORCE] + ay * forces[f, F_FORCE + 1] + az * forces[f, F_FORCE + 2]
         total = kinetic + potential if forces.shape[0] else kinetic
-        drift[0] = _relative(total - row[7] - case[CASE_H0], case[CASE_SCALE])
+        drift[0] = total - row[7] - case[CASE_H0]
     drift[1] = norm - 1.0  # quaternion_norm
     if applies[2]:  # L_norm
-        drift[2] = _relative(math.sqrt(l1 * l1 + l2 * l2 + l3 * l3) - scale_l, scale_l)
+        drift[2] = math.sqrt(l1 * l1 + l2 * l2 + l3 * l3) - scale_l
     if applies[3] or applies[4]:
         s1, s2, s3 = _to_space(u0, u1, u2, u3, l1, l2, l3)
         d1, d2, d3 = s1 - case[CASE_LS0], s2 - case[CASE_LS0 + 1], s3 - case[CASE_LS0 + 2]
         if applies[3]:  # L_space
-            drift[3] = _relative(math.sqrt(d1 * d1 + d2 * d2 + d3 * d3), scale_l)
+            drift[3] = math.sqrt(d1 * d1 + d2 * d2 + d3 * d3)
         if applies[4]:  # L_vertical
-            drift[4] = _relative(d1 * shared[SHARED_UP] + d2 * shared[SHARED_UP + 1] + d3 * shared[SHARED_UP + 2], scale_l)
+            drift[4] = d1 * shared[SHARED_UP] + d2 * shared[SHARED_UP + 1] + d3 * shared[SHARED_UP + 2]
     if applies[5]:  # L_symmetry
         sym = shared[SHARED_SYMMETRY:SHARED_SYMMETRY + 3]
-        drift[5] = _relative((l1 - case[CASE_L0]) * sym[0] + (l2 - case[CASE_L0 + 1]) * sym[1] + (l3 - case[CASE_L0 + 2]) * sym[2], scale_l)
+        drift[5] = (l1 - case[CASE_L0]) * sym[0] + (l2 - case[CASE_L0 + 1]) * sym[1] + (l3 - case[CASE_L0 + 2]) * sym[2]
     for k in range(len(INVARIANTS)):
         if applies[k]:
             acc[ACC_DRIFT + k] = max(acc[ACC_DRIFT + k], abs(drift[k]))
@@ -130,6 +125,20 @@ def observe_rows(times, rows, start, stop, first, case, shared, applies, forces,
         u0, u1, u2, u3 = q0 / norm, q1 / norm, q2 / norm, q3 / norm
         acc[ACC_MIN_COS] = min(acc[ACC_MIN_COS], _nutation_cosine(u0, u1, u2, u3, case))
         fold_drifts(row, norm, u0, u1, u2, u3, case, shared, applies, forces, acc, drift)
+
+
+SCALED_BY = (CASE_SCALE, -1, CASE_LNORM, CASE_LNORM, CASE_LNORM, CASE_LNORM)  # each invariant's scale column (−1: none)
+
+
+def max_drifts(acc: np.ndarray, case: np.ndarray) -> np.ndarray:
+    """(B, len(INVARIANTS)) max |relative drift| of each case: the folded maxima divided by their
+    scale where it is positive (``rotlab.invariants._relative``)."""
+    out = acc[:, ACC_DRIFT:ACC_DRIFT + len(INVARIANTS)].copy()
+    for k, column in enumerate(SCALED_BY):
+        if column >= 0:
+            scale = case[:, column]
+            np.divide(out[:, k], scale, out=out[:, k], where=scale > 0.0)
+    return out
 
 
 @njit(cache=True)

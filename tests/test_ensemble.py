@@ -1,0 +1,157 @@
+"""The ensemble kernels (``rotlab.ensemble``): every case's states are its single run's, bit for
+bit, for every method with an ensemble kernel; the observables reduced as it runs equal those a
+sweep computes from the stored trajectory; a sweep's results grow as cases finish and keep a
+bounded set of series."""
+
+from __future__ import annotations
+
+import copy
+import csv
+import itertools
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from rotlab import checks
+from rotlab.config.loader import parse_scenario, read_toml
+from rotlab.ensemble import observe
+from rotlab.ensemble.block import run_block
+from rotlab.methods.base import Settings
+from rotlab.methods.registry import get_method
+from rotlab.scene.scene import build_scene
+from rotlab.sweep.cases import Case, expand
+from rotlab.sweep.results import Results, parameter_names
+from rotlab.sweep.runner import COMPARED_CASES, compared_cases, outcomes_of, plan, run_cases
+from tests.conftest import CONFIGS
+
+CASES = 5
+METHOD_SCENES = [  # (config, time.end, method, solver changes)
+    ("sweep_flip.toml", 12.0, "rk4", {"step": 1e-3}),
+    ("sweep_flip.toml", 12.0, "splitting", {"step": 1e-3}),
+    ("sweep_flip.toml", 12.0, "rkmk4", {"step": 1e-3}),
+    ("sweep_flip.toml", 12.0, "dmv", {"step": 5e-3, "order": 8}),
+    ("sweep_flip.toml", 12.0, "dop853", {}),
+    ("sweep_flip.toml", 12.0, "rk4", {}),  # the step from each case's own probe
+    ("lagrange.toml", 1.0, "rk4", {"step": 1e-4}),
+    ("lagrange.toml", 1.0, "splitting", {}),
+    ("lagrange.toml", 1.0, "dop853", {}),
+    ("general.toml", 1.0, "rkmk4", {"step": 1e-3}),
+    ("general.toml", 1.0, "dop853", {}),
+]
+
+
+def _scenes(config: str, end: float, method: str, changes: dict) -> list:
+    raw = read_toml(CONFIGS / config)
+    raw.pop("sweep", None)
+    raw["time"]["end"] = end
+    raw["solver"] = {**{k: v for k, v in raw.get("solver", {}).items() if k in ("rtol", "atol")}, "method": method, **changes}
+    rng = np.random.default_rng(7)
+    scenes = []
+    for _ in range(CASES):
+        case = copy.deepcopy(raw)
+        case["initial"]["omega"] = [float(w + 0.05 * rng.normal()) for w in raw["initial"]["omega"]]
+        scenes.append(build_scene(parse_scenario(case, source=config)))
+    return scenes
+
+
+@pytest.mark.parametrize("config, end, method, changes", METHOD_SCENES, ids=[f"{c}-{m}-{'-'.join(map(str, x.values()))}" for c, _, m, x in METHOD_SCENES])
+def test_each_case_of_an_ensemble_is_its_single_run_and_reports_its_observables(config, end, method, changes):
+    """States at every sample identical to the case run alone (``np.array_equal``), the same step
+    count, and the observables of the stored-trajectory report (``outcomes_of``): the flip period
+    and max nutation to 1e-13 relative, each invariant's max drift to 1e-15 (in units of its scale)."""
+    from rotlab import api
+
+    scenes = _scenes(config, end, method, changes)
+    m = get_method(method)
+    settings = Settings.of(scenes[0].scenario.solver)
+    t = scenes[0].scenario.time.sample_times()
+    block = run_block(scenes, m, settings, t, list(range(CASES)), 1, [None] * CASES)
+    alone = [api.run_scene(scene, plan=(m, "alone", settings, t)) for scene in scenes]
+    report = outcomes_of([(Case(k, {}), traj, 0.0) for k, traj in enumerate(alone)])
+    for k, (traj, outcome) in enumerate(zip(alone, report)):
+        kept_t, states = block.kept[k]
+        assert traj.stats.failure is None and block.failure[k] is None
+        assert np.array_equal(kept_t, traj.t) and np.array_equal(states, traj._state)
+        assert block.steps[k] == traj.stats.steps and block.valid[k] == t.shape[0]
+        for name in ("flip_period_s", "max_nutation_deg"):
+            ours = {"flip_period_s": block.flip_period[k], "max_nutation_deg": block.max_nutation_deg[k]}[name]
+            theirs = outcome.observables[name]
+            assert (np.isnan(ours) and np.isnan(theirs)) or abs(ours - theirs) <= 1e-13 * abs(theirs)
+        assert set(block.max_drift) == set(outcome.drift)
+        for name, value in outcome.drift.items():
+            assert abs(block.max_drift[name][k] - value) <= 1e-15, name
+    assert any(np.isfinite(block.flip_period)) or config != "sweep_flip.toml"  # the flip is measured where there is one
+
+
+def test_the_ensemble_observables_share_the_checks_constants():
+    assert observe.MIN_REVERSALS == checks.MIN_REVERSALS
+
+
+def test_a_case_the_step_cannot_take_is_an_error_and_the_others_run(write):
+    """rk4 at h = 1e-3 s is unstable for |ω| = 1e4 rad/s (h·ω > 2.8): that case is refused with
+    the single run's one-line message; the other case runs in the same kernel call."""
+    text = ('[body]\nprincipal_moments = [1.0, 2.0, 3.0]\n[initial]\nomega = [0.1, 1.0, 0.1]\n[time]\nend = 1.0\nsample_rate = 50\n'
+            '[solver]\nmethod = "rk4"\nstep = 1e-3\n[sweep]\n[sweep.parameters]\n"initial.omega[1]" = [1.0, 1.0e4]\n')
+    run = run_cases(plan(write("s.toml", text)))
+    assert run.how.startswith("ensemble kernels (rk4")
+    good, bad = run.outcomes
+    assert good.status == "pass" and good.steps == 1000
+    assert bad.status == "error" and bad.message.startswith("solver.step: 0.001 s is too large to be stable")
+
+
+def test_cases_are_made_when_asked_in_the_grids_product_order(write):
+    text = ('[body]\nprincipal_moments = [1.0, 2.0, 3.0]\n[initial]\nomega = [0.1, 1.0, 0.1]\n[time]\nend = 1.0\n[sweep]\nseed = 5\nsamples = 3\n'
+            '[sweep.parameters]\n"initial.omega[0]" = [0.1, 0.2]\n"initial.omega[1]" = [1.0, 2.0, 3.0]\n'
+            '"initial.omega[2]" = { normal = [0.0, 0.1] }\n')
+    p = plan(write("s.toml", text))
+    cases = expand(p.base.sweep)
+    points = list(itertools.product([0.1, 0.2], [1.0, 2.0, 3.0]))
+    assert len(cases) == 18 and [c.index for c in cases] == list(range(18))
+    for case in cases:
+        assert (case.values["initial.omega[0]"], case.values["initial.omega[1]"]) == points[case.index // 3]
+        draw = np.random.default_rng([5, case.index]).normal(0.0, 0.1)
+        assert case.values["initial.omega[2]"] == float(draw)
+    assert cases[-1] == cases[17] and cases[16:] == [cases[16], cases[17]]
+
+
+def test_only_the_compared_cases_keep_series_and_the_table_is_in_case_order(write):
+    text = ('[body]\nprincipal_moments = [1.0, 2.0, 3.0]\n[initial]\nomega = [0.1, 1.0, 0.1]\n[time]\nend = 0.2\nsample_rate = 50\n'
+            '[solver]\nmethod = "rk4"\nstep = 1e-3\n[sweep]\nsamples = 130\n[sweep.parameters]\n"initial.omega[0]" = { uniform = [0.0, 0.2] }\n')
+    p = plan(write("s.toml", text))
+    results = Results(parameter_names(p.cases[0].values), [])
+    run = run_cases(p, on_outcomes=results.add)
+    assert run.outcomes == [] and len(results) == 130
+    assert sorted(o.index for o in results.compared) == sorted(compared_cases(130)) and len(results.compared) == COMPARED_CASES
+    assert all(o.t is not None and o.t[-1] == 0.2 for o in results.compared)
+    rows = results.rows()
+    assert [r[0] for r in rows] == list(range(130)) and {r[results.header.index("status")] for r in rows} == {"pass"}
+
+
+def test_a_killed_sweep_keeps_the_rows_of_the_cases_that_finished(write, tmp_path):
+    """results.csv grows block by block; SIGKILL mid-sweep leaves whole rows (each parses, with
+    every column), then the finished sweep writes every case in case order."""
+    text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 10.0, 0.01]\n[time]\nend = 5.0\n'
+            'sample_rate = 200\n[solver]\nmethod = "rk4"\nstep = 1e-3\n[sweep]\nsamples = 3000\n'
+            '[sweep.parameters]\n"initial.omega[2]" = { uniform = [-0.05, 0.05] }\n')
+    config = write("big.toml", text)
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "rotlab", "sweep", str(config), "-o", str(out)],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = out / "results.csv"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and process.poll() is None:
+        if results.exists() and len(results.read_text().splitlines()) > 65:
+            break
+        time.sleep(0.05)
+    assert process.poll() is None, "the sweep ended before it could be killed: make it longer"
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    rows = list(csv.reader(results.open()))
+    header, body = rows[0], rows[1:]
+    assert 64 <= len(body) < 3000
+    assert all(len(r) == len(header) for r in body) and [int(r[0]) for r in body] == list(range(len(body)))
+    assert {r[header.index("status")] for r in body} == {"pass"}
