@@ -300,7 +300,7 @@ def sweep(
         from rotlab.arrow import withhold_pandas
         from rotlab.sweep.recording import write_comparison
         from rotlab.sweep.report import terminal_table, write_results
-        from rotlab.sweep.results import Results, parameter_names
+        from rotlab.sweep.results import PARTIAL_RESULTS, Results, parameter_names
 
         keep_heap()  # the ensemble path reports its cases here, and the results table is built here
         withhold_pandas()  # pyarrow would import pandas (time and memory) just to ask if our arrays are Series
@@ -308,8 +308,8 @@ def sweep(
             sweep_plan = plan(config)
             prepare_outdir(outdir)
             exit_after_stop()
-            # the results table: results.csv grows as cases finish; the final files, the recording and the terminal read it
-            results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / "results.csv")
+            # the results table: results.partial.csv grows as cases finish; the final files, the recording and the terminal read it
+            results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / PARTIAL_RESULTS)
             run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm,
                             on_outcomes=results.add)
         except InputError as exc:

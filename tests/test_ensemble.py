@@ -132,16 +132,18 @@ def test_only_the_compared_cases_keep_series_and_the_table_is_in_case_order(writ
 
 
 def test_a_killed_sweep_keeps_the_rows_of_the_cases_that_finished(write, tmp_path):
-    """results.csv grows block by block; SIGKILL mid-sweep leaves whole rows (each parses, with
-    every column), then the finished sweep writes every case in case order."""
+    """results.partial.csv grows block by block; SIGKILL mid-sweep leaves whole rows there (each
+    parses, with every column); an earlier results.csv is left as it was."""
     text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 10.0, 0.01]\n[time]\nend = 5.0\n'
             'sample_rate = 200\n[solver]\nmethod = "rk4"\nstep = 1e-3\n[sweep]\nsamples = 3000\n'
             '[sweep.parameters]\n"initial.omega[2]" = { uniform = [-0.05, 0.05] }\n')
     config = write("big.toml", text)
     out = tmp_path / "out"
+    out.mkdir()
+    (out / "results.csv").write_text("an earlier sweep's results\n")
     process = subprocess.Popen([sys.executable, "-m", "rotlab", "sweep", str(config), "-o", str(out)],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    results = out / "results.csv"
+    results = out / "results.partial.csv"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and process.poll() is None:
         if results.exists() and len(results.read_text().splitlines()) > 65:
@@ -155,3 +157,4 @@ def test_a_killed_sweep_keeps_the_rows_of_the_cases_that_finished(write, tmp_pat
     assert 64 <= len(body) < 3000
     assert all(len(r) == len(header) for r in body) and [int(r[0]) for r in body] == list(range(len(body)))
     assert {r[header.index("status")] for r in body} == {"pass"}
+    assert (out / "results.csv").read_text() == "an earlier sweep's results\n"

@@ -15,8 +15,8 @@ from rotlab.sweep.results import OBSERVABLES, STATUSES, TERMINAL_ROWS, Results
 
 
 def write_results(results: Results, outdir: Path) -> list[Path]:
-    """results.csv and results.parquet of every case in case order, atomically (the results.csv
-    written as the cases finished is replaced by the whole one)."""
+    """results.csv and results.parquet of every case in case order, atomically; then the partial
+    file written as the cases finished goes (it stays should this fail: a full disk)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -45,6 +45,7 @@ def write_results(results: Results, outdir: Path) -> list[Path]:
 
     table = pa.table({name: column(name) for name in header})
     _atomically({csv_path: write_csv, parquet_path: lambda tmp: pq.write_table(table, tmp)})
+    results.close(remove=True)
     return [csv_path, parquet_path]
 
 

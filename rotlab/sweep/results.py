@@ -1,5 +1,7 @@
-"""A sweep's results as its cases finish: each case's row appended to ``results.csv`` at once (a
-killed sweep keeps the rows of the cases that finished), and kept column by column — 8 bytes a
+"""A sweep's results as its cases finish: each case's row appended to ``results.partial.csv`` at
+once (a killed sweep keeps the rows of the cases that finished there; the finished sweep writes
+results.csv and results.parquet whole, in case order, and removes it — an earlier results.csv is
+never half overwritten), and kept column by column — 8 bytes a
 number, so 10⁶ cases cost ~100 MB, not a Python object per cell — for the final files, the
 terminal table and the comparison recording.
 
@@ -25,6 +27,7 @@ if TYPE_CHECKING:
 OBSERVABLES = ("flip_period_s", "max_nutation_deg")  # rotlab.sweep.observables
 STATUSES = ("pass", "fail", "error")
 FIXED = ("status", "method", "steps", "seconds")
+PARTIAL_RESULTS = "results.partial.csv"  # the rows as cases finish (module docstring)
 TERMINAL_ROWS = 50  # a larger sweep's terminal table shows only the cases that did not pass
 
 
@@ -171,10 +174,13 @@ class Results:
             self._writer.writerows(self.table(np.arange(first, self._size)))
             self._csv.flush()
 
-    def close(self) -> None:
+    def close(self, remove: bool = False) -> None:
+        """Close the partial file (``remove``: and delete it, the whole files being written)."""
         if self._csv is not None:
             self._csv.close()
             self._csv = None
+        if remove and self._csv_path is not None:
+            self._csv_path.unlink(missing_ok=True)
 
 
 def _param(value: object) -> float:
