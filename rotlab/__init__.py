@@ -4,13 +4,16 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["InputError", "Interrupted", "RunFailure", "Scenario", "Trajectory", "__version__", "load", "parse_scenario", "save", "simulate"]
+__all__ = ["InputError", "Interrupted", "RunFailure", "Scenario", "Stability", "Trajectory", "__version__", "load", "parse_scenario", "save",
+           "simulate", "stability"]
 
 _LAZY = {
     "load": "rotlab.api",
     "simulate": "rotlab.api",
     "save": "rotlab.api",
     "parse_scenario": "rotlab.config.loader",
+    "stability": "rotlab.stability",
+    "Stability": "rotlab.stability",
     "Scenario": "rotlab.config.models",
     "Trajectory": "rotlab.trajectory",
     "InputError": "rotlab.errors",

@@ -205,6 +205,22 @@ def validate(
 
 
 @app.command()
+def stability(
+    config: Annotated[Path, typer.Argument(help="Scenario TOML file whose initial state is a relative equilibrium.")],
+    assignments: SetOption = None,
+) -> None:
+    """Linear stability of the initial state: eigenvalues and a verdict (a permanent rotation, a sleeping top)."""
+    from rotlab.errors import InputError
+    from rotlab.stability import stability as analyse
+
+    try:
+        result = analyse(config, overrides=_overrides(assignments))
+    except InputError as exc:
+        _fail(exc)
+    typer.echo(str(result))
+
+
+@app.command()
 def batch(
     paths: Annotated[list[Path], typer.Argument(help="Scenario files and/or directories of *.toml files.")],
     outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Where recordings, summary.json and junit.xml go.")] = Path("batch-out"),
@@ -273,6 +289,24 @@ def _check_timeout(timeout: float | None, dask: str | None) -> None:
         raise InputError("--timeout", "not available with --dask (a running Dask task cannot be stopped): use the cluster's limits")
 
 
+def _case_numbers(text: str | None, count: int) -> list[int]:
+    """``--compare``'s case numbers ("3,17"), each in [0, count)."""
+    from rotlab.errors import InputError
+
+    if text is None:
+        return []
+    numbers = []
+    for part in text.split(","):
+        try:
+            k = int(part)
+        except ValueError:
+            raise InputError("--compare", f"'{part.strip()}' is not a case number: give numbers separated by commas, as 3,17") from None
+        if not 0 <= k < count:
+            raise InputError("--compare", f"case {k} is not in this sweep: its cases are 0 … {count - 1}")
+        numbers.append(k)
+    return numbers
+
+
 @app.command()
 def sweep(
     config: Annotated[Path, typer.Argument(help="Scenario TOML file with a [sweep] section.")],
@@ -281,12 +315,13 @@ def sweep(
     dask: Annotated[Optional[str], typer.Option("--dask", help="Run on an existing Dask cluster: tcp://HOST:PORT.")] = None,
     timeout: Annotated[Optional[float], typer.Option("--timeout", help="Per-case wall-clock limit in seconds (local workers).")] = None,
     retries: Annotated[int, typer.Option("--retries", min=0, help="Run a case again when its worker dies (default 0).")] = 0,
+    compare: Annotated[Optional[str], typer.Option("--compare", help="Cases (numbers, comma-separated) whose series the comparison recording shows, besides 50 spread over the sweep.")] = None,
 ) -> None:
     """Run a parameter sweep; exit 1 if any case errs or breaks a [checks] bound."""
     from contextlib import nullcontext
 
     from rotlab.errors import InputError, RunFailure
-    from rotlab.sweep.runner import plan, run_cases, start_workers
+    from rotlab.sweep.runner import compared_cases, plan, run_cases, start_workers
 
     try:
         _check_timeout(timeout, dask)
@@ -311,7 +346,7 @@ def sweep(
             # the results table: results.partial.csv grows as cases finish; the final files, the recording and the terminal read it
             results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / PARTIAL_RESULTS)
             run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm,
-                            on_outcomes=results.add)
+                            on_outcomes=results.add, compared=compared_cases(len(sweep_plan.cases), _case_numbers(compare, len(sweep_plan.cases))))
         except InputError as exc:
             _fail(exc)
         except OSError as exc:

@@ -78,7 +78,7 @@ def test_to_dataframe_names_columns_with_frames_and_units():
 
 
 def test_public_names():
-    for name in ("simulate", "load", "parse_scenario", "Scenario", "Trajectory", "InputError", "RunFailure", "Interrupted"):
+    for name in ("simulate", "load", "parse_scenario", "Scenario", "Trajectory", "InputError", "RunFailure", "Interrupted", "stability", "Stability"):
         assert getattr(rotlab, name) is not None
     with pytest.raises(AttributeError):
         rotlab.nonexistent  # noqa: B018
@@ -86,12 +86,13 @@ def test_public_names():
 
 def test_readme_python_example_runs_as_written(tmp_path, monkeypatch, capsys):
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    block = re.search(r"<!-- ci:python -->\n```python\n(.*?)```", readme, re.S)
-    assert block, "README lacks the ci:python example"
-    code = block.group(1).replace('"configs/', f'"{CONFIGS}/')
+    blocks = re.findall(r"<!-- ci:python -->\n```python\n(.*?)```", readme, re.S)
+    assert len(blocks) >= 2, "README lacks the ci:python examples"
     monkeypatch.chdir(tmp_path)
-    exec(compile(code, "README.md", "exec"), {})
+    for block in blocks:  # each as written, in its own namespace
+        exec(compile(block.replace('"configs/', f'"{CONFIGS}/'), "README.md", "exec"), {})
     printed = capsys.readouterr().out
+    assert "unstable 0.809039" in printed  # the stability example
     assert "<Trajectory lagrange scene" in printed and "rad/s" in printed and "stopped: step budget" in printed
     assert (tmp_path / "top.rrd").exists()
 

@@ -6,8 +6,8 @@ Entities
     /results/<parameter>/<observable>            scatter: observable of each case against the
                                                  swept parameter (see ``rotlab.recording.scatter``)
     /sweep                                       the results table (Markdown)
-Bounded whatever the number of cases: series of at most ``MAX_COMPARED`` cases (spread evenly
-over the sweep, and any asked for: ``rotlab.sweep.runner.compared_cases``), scatters of at most
+Bounded whatever the number of cases: series of ``COMPARED_CASES`` cases spread evenly over the
+sweep and any asked for (``--compare``: ``rotlab.sweep.runner.compared_cases``), scatters of at most
 ``MAX_SCATTER`` cases, a table of at most ``MAX_TABLE`` rows.
 Case k has the same colour everywhere (``style.ramp_color`` in the order of the first swept
 parameter), so a line in a time plot and a point in a scatter plot are recognisably one case.
@@ -27,7 +27,6 @@ from rotlab.recording.style import AXIS_TRACE, ramp_color
 from rotlab.sweep.results import Results
 from rotlab.sweep.runner import CaseOutcome
 
-MAX_COMPARED = 50  # cases with series in the recording (``rotlab.sweep.runner.compared_cases``)
 MAX_SCATTER = 20_000  # cases drawn in each scatter (evenly spread over the sweep), and ...
 MAX_TABLE = 500  # ... rows in its Markdown table (the compared and the failing cases first)
 LOG_FLOOR = 1e-17  # below double precision: drawn as −17
@@ -153,8 +152,7 @@ def table_rows(results: Results, shown: list[CaseOutcome]) -> np.ndarray:
 
 
 def write_comparison(results: Results, path: Path, title: str) -> Path:
-    """One recording comparing the cases that kept their series (``results.compared``, at most
-    ``MAX_COMPARED``) and scattering every case's observables (up to ``MAX_SCATTER``).  Written as
+    """One recording comparing the cases that kept their series (``results.compared``) and scattering every case's observables (up to ``MAX_SCATTER``).  Written as
     a run's recording is (``RecordingSink``: every write checked, the file verified, then
     renamed): a full disk is ``RunFailure``, with no temporary file left and an existing file untouched."""
     import rerun as rr
@@ -163,7 +161,7 @@ def write_comparison(results: Results, path: Path, title: str) -> Path:
     from rotlab.recording.writer import check_output_path
 
     check_output_path(path)
-    shown = sorted(results.compared, key=lambda o: o.index)[:MAX_COMPARED]
+    shown = sorted(results.compared, key=lambda o: o.index)
     case = results.column("case")
     row_of = {int(c): k for k, c in enumerate(case.tolist())} if shown else {}
     shown_colors = dict(zip([o.index for o in shown], case_colors(results, np.array([row_of[o.index] for o in shown], dtype=np.int64))))

@@ -342,7 +342,7 @@ def chunk_size(cases: int, workers: int) -> int:
 def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, timeout: float | None = None,
               retries: int = 0, warm: WarmWorkers | None = None, on_outcomes: Callable[[list[CaseOutcome]], None] | None = None,
               compared: frozenset[int] | None = None) -> SweepRun:
-    """Every case: the ensemble kernels when ``ensemble_plan`` allows, else local worker processes
+    """Every case: the ensemble kernels when ``ensemble_plan`` allows (on ``jobs`` threads), else local worker processes
     or the Dask cluster at ``dask_address``.  Local workers take the cases in chunks
     (``chunk_size``), validate and run them and report them together; a chunk whose worker died is
     run again one case per task (with ``retries``: the chunk's attempt, which cannot name the case
@@ -360,7 +360,11 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     if warm is not None and (plan is not None or dask_address is not None):
         warm.release()  # the cases run elsewhere: the warm workers would only take the cores
     if plan is not None:
+        import numba
+
         started, done, stopped, size = time.perf_counter(), 0, None, FIRST_BLOCK
+        threads = numba.get_num_threads()
+        numba.set_num_threads(max(1, min(jobs, numba.config.NUMBA_NUM_THREADS)))  # -j: the kernels' threads
         with signals_raise_stopped():
             try:
                 while done < len(p.cases):
@@ -371,10 +375,13 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
                     size = block_size(size, time.perf_counter() - block_started)
             except Stopped as stop:  # (between kernel calls: a block is not cut short)
                 stopped = stop.signum
+            finally:
+                used = numba.get_num_threads()
+                numba.set_num_threads(threads)
         if stopped is not None:
             note = f"not finished (the sweep received {signal.Signals(stopped).name})"
             deliver([CaseOutcome(case.index, case.values, "error", message=note) for case in p.cases[done:]])
-        how = (f"ensemble kernels ({plan.method_name}, numba parallel over cases, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
+        how = (f"ensemble kernels ({plan.method_name}, {used} thread{'s' if used > 1 else ''} over cases, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
                f"{time.perf_counter() - started:.3g} s for all cases; {plan.why})")
         return SweepRun(sorted(collected, key=lambda o: o.index), how, stopped)
     if dask_address is not None:
