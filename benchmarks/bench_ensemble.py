@@ -2,7 +2,7 @@
 (``rotlab.ensemble``, observables reduced as each case runs), on 1 and 2 threads, against the same
 cases each solved alone (``Method.solve``, the single run's integration, without its report).
 
-    python benchmarks/bench_ensemble.py [--cases 256] [--repeats 3]
+    python benchmarks/bench_ensemble.py [--cases 128] [--repeats 5]
 
 Problems: the free body of configs/sweep_flip.toml (20 s at 200 samples/s, ω₀ dispersed as the
 sweep disperses it) and the heavy top of configs/lagrange.toml (10 s), each case from a perturbed ω₀.
@@ -68,8 +68,8 @@ def median_seconds(fn, repeats: int) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cases", type=int, default=256)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--cases", type=int, default=128)
+    parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     threads = numba.get_num_threads()
     print(f"{args.cases} cases per ensemble call; numba threads available: {threads}")

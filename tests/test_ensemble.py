@@ -158,3 +158,26 @@ def test_a_killed_sweep_keeps_the_rows_of_the_cases_that_finished(write, tmp_pat
     assert all(len(r) == len(header) for r in body) and [int(r[0]) for r in body] == list(range(len(body)))
     assert {r[header.index("status")] for r in body} == {"pass"}
     assert (out / "results.csv").read_text() == "an earlier sweep's results\n"
+
+
+def test_compare_asks_for_cases_and_jobs_sets_the_kernels_threads(cli, write):
+    text = ('[body]\nprincipal_moments = [1.0, 2.0, 3.0]\n[initial]\nomega = [0.1, 1.0, 0.1]\n[time]\nend = 0.2\nsample_rate = 50\n'
+            '[solver]\nmethod = "rk4"\nstep = 1e-3\n[sweep]\nsamples = 130\n[sweep.parameters]\n"initial.omega[0]" = { uniform = [0.0, 0.2] }\n')
+    config = write("s.toml", text)
+    p = plan(config)
+    results = Results(parameter_names(p.cases[0].values), [])
+    run_cases(p, on_outcomes=results.add, compared=compared_cases(130, [4, 7]))
+    assert {o.index for o in results.compared} == set(compared_cases(130)) | {4, 7}
+    one = cli("sweep", str(config), "-o", "one", "-j", "1", "--compare", "4,7")
+    two = cli("sweep", str(config), "-o", "two", "-j", "2")
+    assert one.exit_code == two.exit_code == 0
+    assert "rk4, 1 thread over cases" in one.stdout and "rk4, 2 threads over cases" in two.stdout
+    assert _without_seconds("one") == _without_seconds("two")  # the threads change no number
+    refused = cli("sweep", str(config), "-o", "three", "--compare", "130")
+    assert refused.exit_code == 2 and refused.stderr.strip() == "rotlab: error: --compare: case 130 is not in this sweep: its cases are 0 … 129"
+
+
+def _without_seconds(outdir: str) -> list[list[str]]:
+    rows = list(csv.reader(open(f"{outdir}/results.csv")))
+    drop = rows[0].index("seconds")
+    return [r[:drop] + r[drop + 1:] for r in rows]

@@ -162,8 +162,9 @@ def write_comparison(results: Results, path: Path, title: str) -> Path:
 
     check_output_path(path)
     shown = sorted(results.compared, key=lambda o: o.index)
-    case = results.column("case")
-    row_of = {int(c): k for k, c in enumerate(case.tolist())} if shown else {}
+    order = results.in_case_order()
+    positions = np.searchsorted(results.column("case")[order], [o.index for o in shown])
+    row_of = dict(zip([o.index for o in shown], order[positions].tolist()))  # (the shown cases' rows only)
     shown_colors = dict(zip([o.index for o in shown], case_colors(results, np.array([row_of[o.index] for o in shown], dtype=np.int64))))
     drawn = drawn_rows(results)
     scatters = plots(results, drawn, case_colors(results, drawn))

@@ -14,37 +14,50 @@ import numpy as np
 from rotlab.sweep.results import OBSERVABLES, STATUSES, TERMINAL_ROWS, Results
 
 
+WRITE_ROWS = 16_384  # rows made at a time for the final files (their memory, not the sweep's, bounds it)
+
+
 def write_results(results: Results, outdir: Path) -> list[Path]:
-    """results.csv and results.parquet of every case in case order, atomically; then the partial
-    file written as the cases finished goes (it stays should this fail: a full disk)."""
+    """results.csv and results.parquet of every case in case order, ``WRITE_ROWS`` rows at a time
+    (a Parquet row group each), atomically; then the partial file written as the cases finished
+    goes (it stays should this fail: a full disk)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     results.close()
     header, order = results.header, results.in_case_order()
     csv_path, parquet_path = outdir / "results.csv", outdir / "results.parquet"
+    chunks = [order[start:start + WRITE_ROWS] for start in range(0, max(1, order.shape[0]), WRITE_ROWS)]
 
     def write_csv(tmp: Path) -> None:
         with tmp.open("w", newline="", encoding="utf-8") as f:
             writer = csv.writer(f)
             writer.writerow(header)
-            for start in range(0, order.shape[0], 65536):  # (a million rows are not made at once)
-                writer.writerows(results.table(order[start:start + 65536]))
+            for rows in chunks:
+                writer.writerows(results.table(rows))
 
-    def column(name: str) -> pa.Array:
+    def column(name: str, rows: np.ndarray) -> pa.Array:
         if name == "status":
-            return pa.array([STATUSES[k] for k in results.column(name)[order].tolist()])
+            return pa.array([STATUSES[k] for k in results.column(name)[rows].tolist()], type=pa.string())
         if name == "method":
-            return pa.array([results.methods[k] if results.methods else None for k in results.column(name)[order].tolist()])
+            return pa.array([results.methods[k] if results.methods else None for k in results.column(name)[rows].tolist()], type=pa.string())
         if name == "message":
-            return pa.array([results.messages.get(k) or None for k in order.tolist()], type=pa.string())
-        values = results.column(name)[order]
+            return pa.array([results.messages.get(k) or None for k in rows.tolist()], type=pa.string())
+        values = results.column(name)[rows]
         if name in OBSERVABLES or name == "seconds":
             values = np.round(values, 9 if name in OBSERVABLES else 6)
         return pa.array(values, mask=np.isnan(values)) if values.dtype.kind == "f" else pa.array(values)
 
-    table = pa.table({name: column(name) for name in header})
-    _atomically({csv_path: write_csv, parquet_path: lambda tmp: pq.write_table(table, tmp)})
+    def write_parquet(tmp: Path) -> None:
+        batches = (pa.record_batch([column(name, rows) for name in header], names=header) for rows in chunks)
+        first = next(batches)
+        with pq.ParquetWriter(tmp, first.schema) as writer:
+            writer.write_batch(first)
+            for batch in batches:
+                writer.write_batch(batch)
+
+    _atomically({csv_path: write_csv, parquet_path: write_parquet})
+    pa.default_memory_pool().release_unused()  # (Arrow's allocator keeps freed memory for reuse)
     results.close(remove=True)
     return [csv_path, parquet_path]
 
