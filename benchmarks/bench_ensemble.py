@@ -23,6 +23,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from bench_core import median_seconds  # (benchmarks/ is on sys.path when this file runs)
+
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.ensemble.block import run_block
 from rotlab.methods.base import Settings
@@ -54,16 +56,6 @@ def scenes_of(name: str, method: str, cases: int) -> list:
         case["initial"]["omega"] = [float(w + spread * rng.uniform(-1.0, 1.0)) for w in raw["initial"]["omega"]]
         scenes.append(build_scene(parse_scenario(case, source=file)))
     return scenes
-
-
-def median_seconds(fn, repeats: int) -> float:
-    fn()  # compile / load
-    times = []
-    for _ in range(repeats):
-        started = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - started)
-    return float(np.median(times))
 
 
 def main() -> None:
@@ -98,6 +90,7 @@ def main() -> None:
             per_thread = {}
             for n in (1, min(2, threads)):
                 numba.set_num_threads(n)
+                ensemble()  # (compiled, or loaded from the cache, before the timing)
                 per_thread[n] = median_seconds(ensemble, args.repeats) / len(scenes)
             numba.set_num_threads(threads)
             steps = int(np.sum(results["block"].steps))

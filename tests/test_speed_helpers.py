@@ -181,7 +181,7 @@ def test_the_sweeps_nutation_is_the_angle_of_the_users_body_axis_in_space():
     reference direction, within 1e-7 rad (arccos near 0 or π amplifies rounding of the cosine to ~√ε)."""
     import rotlab
     from rotlab.core.quaternion import rotate_to_space_array
-    from rotlab.sweep.observables import nutation, reference_axes
+    from rotlab.observables import nutation, reference_axes
     from rotlab.trajectory import stack_runs
     from tests.conftest import CONFIGS
 

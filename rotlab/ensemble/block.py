@@ -62,9 +62,9 @@ class BlockResult:
 
 def case_inputs(scenes: list[Scene], given_axes: list[str | None]) -> np.ndarray:
     """``observe``'s per-case columns (B, CASE_COLUMNS) from each case's first sample: the flip
-    axis row (``rotlab.sweep.observables.flip_axes``), e and d (``reference_axes``), the reference
+    axis row (``rotlab.observables.flip_axes``), e and d (``reference_axes``), the reference
     values of the drifts (``rotlab.trajectory.reference_of``)."""
-    from rotlab.sweep.observables import flip_axes, reference_axes
+    from rotlab.observables import flip_axes, reference_axes
 
     scene = scenes[0]
     y0 = np.array([s.state0 for s in scenes])

@@ -1,6 +1,6 @@
 """A case's observables reduced as its samples are made (compiled; an ensemble keeps no trajectory).
 
-The same quantities a sweep reports from a stored trajectory (``rotlab.sweep.observables``,
+The same quantities a sweep reports from a stored trajectory (``rotlab.observables``,
 ``rotlab.invariants``), in the same formulas, one sample at a time (principal frame, unit Λ = Λ/|Λ|):
 
     flip:      c = a·ω (a: the flip axis row, user's body axis in principal components); a sign

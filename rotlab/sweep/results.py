@@ -24,7 +24,7 @@ import numpy as np
 if TYPE_CHECKING:
     from rotlab.sweep.runner import CaseOutcome
 
-OBSERVABLES = ("flip_period_s", "max_nutation_deg")  # rotlab.sweep.observables
+OBSERVABLES = ("flip_period_s", "max_nutation_deg")  # rotlab.observables
 STATUSES = ("pass", "fail", "error")
 FIXED = ("status", "method", "steps", "seconds")
 PARTIAL_RESULTS = "results.partial.csv"  # the rows as cases finish (module docstring)

@@ -55,7 +55,7 @@ class CaseOutcome:
     drift: dict[str, float] = field(default_factory=dict)
     checks: list[dict] = field(default_factory=list)
     message: str = ""
-    observables: dict[str, float] = field(default_factory=dict)  # see rotlab.sweep.observables
+    observables: dict[str, float] = field(default_factory=dict)  # see rotlab.observables
     t: np.ndarray | None = None  # decimated series for the comparison recording
     omega: np.ndarray | None = None
     energy_drift: np.ndarray | None = None
@@ -108,7 +108,7 @@ def outcomes_of(runs: list[tuple[Case, Trajectory, float]], compared: frozenset[
 
 
 def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]], compared: frozenset[int] | None) -> list[CaseOutcome]:
-    from rotlab.sweep.observables import flip_axes, flips, observables
+    from rotlab.observables import flip_axes, flips, observables
 
     stacked = stack_runs([traj for _, traj, _ in runs])
     given = [traj.scene.scenario.checks.flip_period for _, traj, _ in runs]
