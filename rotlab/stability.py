@@ -9,7 +9,9 @@ constant forces F_i = s_i·up at body points p_i give M = c × γ with c = Σ s_
 
 and the attitude about "up" (and, torque-free, the whole attitude) is left out: it is neutral and
 does not feed back.  An equilibrium of these equations is a relative equilibrium of the body: a
-permanent rotation about a principal axis, or a top spinning about the vertical (sleeping).
+permanent rotation about a principal axis, or a top spinning about the vertical (sleeping).  A
+Lagrange top's steady precession is one in the top's reduced coordinates (θ, θ̇) instead
+(``steady_precession``).
 The Jacobian is exact:
 
     ∂ω̇/∂ω = I⁻¹([Iω]× − [ω]× I),  ∂ω̇/∂γ = I⁻¹[c]×,  ∂γ̇/∂ω = [γ]×,  ∂γ̇/∂γ = −[ω]×.
@@ -100,6 +102,8 @@ def stability(scenario: Scenario | str | Path, *, overrides: Mapping[str, Any] |
         forces = scene.loads.forces
         c = np.sum((forces[:, F_FORCE:F_FORCE + 3] @ up)[:, None] * forces[:, F_POINT:F_POINT + 3], axis=0)
         rate = float(max(np.linalg.norm(omega), np.sqrt(np.linalg.norm(c) / np.min(moments))))
+        if scene.symmetry_axis is not None and not _at_rest(moments, omega, gamma, c, rate):
+            return steady_precession(moments, np.asarray(scene.symmetry_axis, dtype=float), omega, gamma, c, rate)
         _check_rest(moments, omega, gamma, c, rate)
         jacobian = np.block([[d_omega_d_omega, inverse @ _cross_matrix(c)], [_cross_matrix(gamma), -_cross_matrix(omega)]])
         x0 = np.concatenate([omega, gamma])
@@ -112,15 +116,65 @@ def stability(scenario: Scenario | str | Path, *, overrides: Mapping[str, Any] |
     return Stability(space, x0, jacobian, eigenvalues, growth if unstable else 0.0, "unstable" if unstable else "linearly stable", rate)
 
 
-def _check_rest(moments: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None, rate: float) -> None:
-    """An ``InputError`` unless ω̇ = 0 and γ̇ = 0 at the state (to ``EQUILIBRIUM`` of rate² and rate)."""
+def _rates(moments: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(ω̇, γ̇) of the module docstring's equations."""
     torque = np.zeros(3) if c is None else np.cross(c, gamma)
-    omega_dot = (np.cross(moments * omega, omega) + torque) / moments
-    gamma_dot = np.zeros(3) if gamma is None else np.cross(gamma, omega)
-    if rate == 0.0:
-        return
-    if np.linalg.norm(omega_dot) > EQUILIBRIUM * rate**2 or np.linalg.norm(gamma_dot) > EQUILIBRIUM * rate:
+    return (np.cross(moments * omega, omega) + torque) / moments, np.zeros(3) if gamma is None else np.cross(gamma, omega)
+
+
+def _at_rest(moments: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None, rate: float) -> bool:
+    """ω̇ = 0 and γ̇ = 0 at the state, to ``EQUILIBRIUM`` of rate² and rate."""
+    omega_dot, gamma_dot = _rates(moments, omega, gamma, c)
+    return rate == 0.0 or (np.linalg.norm(omega_dot) <= EQUILIBRIUM * rate**2 and np.linalg.norm(gamma_dot) <= EQUILIBRIUM * rate)
+
+
+def _check_rest(moments: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None, rate: float) -> None:
+    """An ``InputError`` unless the state is at rest (``_at_rest``)."""
+    if not _at_rest(moments, omega, gamma, c, rate):
+        omega_dot, gamma_dot = _rates(moments, omega, gamma, c)
         what = ("a permanent rotation about a principal axis (ω₀ along one)" if gamma is None else
-                "a permanent rotation about a principal axis that is vertical, with the centre of mass on it (a sleeping top)")
+                "a permanent rotation about a principal axis that is vertical, with the centre of mass on it (a sleeping top), "
+                "or a Lagrange top's steady precession")
         raise InputError("initial", f"not an equilibrium: |dω/dt| = {np.linalg.norm(omega_dot):.3g} rad/s², |dγ/dt| = "
                                     f"{np.linalg.norm(gamma_dot):.3g} 1/s in the body frame; stability analyses {what}")
+
+
+def steady_precession(moments: np.ndarray, axis: np.ndarray, omega: np.ndarray, gamma: np.ndarray, c: np.ndarray,
+                      rate: float) -> Stability:
+    """A Lagrange top (symmetry axis e, A about the axes across it, C along it) in steady
+    precession: ω = ψ̇ γ + φ̇ e (θ̇ = 0) at a tilt θ₀ where the effective potential
+
+        U(θ) = (p_ψ − C ω₃ cos θ)² / (2 A sin² θ) + k cos θ,   p_ψ = L·γ, ω₃ = ω·e, k = −c·e (= m g l)
+
+    is stationary.  With p_ψ and ω₃ conserved, A θ̈ = −U'(θ): about θ₀ the eigenvalues are
+    ±√(−U''(θ₀)/A) — the nutation at √(U''/A) rad/s when U'' > 0.  U' by a complex step, U'' by a
+    central difference of it (~1e-10 relative)."""
+    cos0 = float(np.clip(axis @ gamma, -1.0, 1.0))
+    theta0 = float(np.arccos(cos0))
+    along = np.linalg.lstsq(np.column_stack([gamma, axis]), omega, rcond=None)[0]
+    nodal = float(np.linalg.norm(omega - along[0] * gamma - along[1] * axis))
+    a_moment, c_moment = float(np.max(moments * (1.0 - np.abs(axis)))), float(moments @ np.abs(axis))  # e is a principal axis
+    spin, p_psi, k = float(omega @ axis), float((moments * omega) @ gamma), float(-(c @ axis))
+
+    def potential(theta):
+        return (p_psi - c_moment * spin * np.cos(theta)) ** 2 / (2.0 * a_moment * np.sin(theta) ** 2) + k * np.cos(theta)
+
+    def slope(theta: float) -> float:
+        return float(np.imag(potential(theta + 1e-20j)) / 1e-20)
+
+    scale = abs(k) + a_moment * rate**2  # J: the potential's and the kinetic energy's size
+    if np.sin(theta0) < 1e-9 or nodal > EQUILIBRIUM * rate or abs(slope(theta0)) > EQUILIBRIUM * scale:
+        raise InputError("initial", f"not an equilibrium: a Lagrange top at θ = {np.degrees(theta0):.6g}° with θ̇ = {nodal:.3g} rad/s "
+                                    f"and U'(θ) = {slope(theta0):.3g} J is not in steady precession; stability analyses a permanent "
+                                    "rotation, a sleeping top, or a steady precession (ω = ψ̇ γ + φ̇ e with A ψ̇² cos θ − C ω₃ ψ̇ + m g l = 0)")
+    delta = 1e-5
+    curvature = (slope(theta0 + delta) - slope(theta0 - delta)) / (2.0 * delta)
+    root = np.sqrt(complex(-curvature / a_moment))
+    eigenvalues = np.array([root, -root])
+    eigenvalues = eigenvalues[np.argsort(-eigenvalues.real, kind="stable")]
+    growth = float(np.max(eigenvalues.real))
+    unstable = growth > NEUTRAL * rate
+    jacobian = np.array([[0.0, 1.0], [-curvature / a_moment, 0.0]])
+    return Stability(f"(θ, θ̇) of the Lagrange top at p_ψ = {p_psi:.6g} kg·m²/s and ω₃ = {spin:.6g} rad/s (steady precession at "
+                     f"θ₀ = {np.degrees(theta0):.6g}°, ψ̇ = {along[0]:.6g} rad/s)", np.array([theta0, 0.0]), jacobian, eigenvalues,
+                     growth if unstable else 0.0, "unstable" if unstable else "linearly stable", rate)

@@ -71,3 +71,46 @@ def test_a_state_that_is_not_an_equilibrium_or_loads_out_of_reach_are_refused(cl
     assert done.exit_code == 0 and "verdict: unstable" in done.stdout and "growth rate: 0.809039835 1/s" in done.stdout
     refused = cli("stability", str(CONFIGS / "euler.toml"), "--set", "initial.omega=[1, 2, 0]")
     assert refused.exit_code == 2 and len(refused.stderr.strip().splitlines()) == 1 and "Traceback" not in refused.stderr
+
+
+def _precessing(theta_deg: float, spin: float, fast: bool) -> tuple[list[float], float]:
+    """ω (body) of a steady precession of the lagrange.toml top at tilt θ with spin ω₃: ψ̇ a root
+    of A ψ̇² cos θ − C ω₃ ψ̇ + m g l = 0 (slow or fast); Euler angles (0, θ, 0) put γ = (0, sin θ, cos θ)."""
+    A, C, mgl = TOP["A"], TOP["C"], TOP["mgl"]
+    theta = np.radians(theta_deg)
+    slow_root, fast_root = sorted(np.roots([A * np.cos(theta), -C * spin, mgl]).real)
+    rate = fast_root if fast else slow_root
+    return [0.0, rate * np.sin(theta), spin], rate
+
+
+@pytest.mark.parametrize("theta_deg, spin, fast", [(25.0, 150.0, False), (25.0, 150.0, True), (60.0, 80.0, False), (120.0, 200.0, False)])
+def test_a_steady_precession_nutates_at_the_effective_potentials_curvature(theta_deg, spin, fast):
+    """Eigenvalues ±i√(U''(θ₀)/A), U'' from mpmath at 30 digits (U of the module docstring)."""
+    import mpmath
+
+    A, C, mgl = TOP["A"], TOP["C"], TOP["mgl"]
+    omega, rate = _precessing(theta_deg, spin, fast)
+    result = rotlab.stability(CONFIGS / "lagrange.toml", overrides={"initial.omega": omega, "initial.euler_313_deg": [0, theta_deg, 0]})
+    mpmath.mp.dps = 30
+    theta0 = mpmath.radians(theta_deg)
+    p_psi = A * rate * mpmath.sin(theta0) ** 2 + C * spin * mpmath.cos(theta0)  # L·γ
+    U = lambda th: (p_psi - C * spin * mpmath.cos(th)) ** 2 / (2 * A * mpmath.sin(th) ** 2) + mgl * mpmath.cos(th)  # noqa: E731
+    assert abs(mpmath.diff(U, theta0)) < 1e-9 * mgl  # the reference agrees this is a steady precession
+    frequency = float(mpmath.sqrt(mpmath.diff(U, theta0, 2) / A))
+    assert result.verdict == "linearly stable" and "steady precession" in result.space
+    assert np.sort(result.eigenvalues.imag) == pytest.approx([-frequency, frequency], rel=1e-7)
+
+
+def test_a_nudged_steady_precession_nutates_at_the_predicted_frequency():
+    """θ nudged by 1e-4 rad from a slow steady precession, simulated: θ(t) oscillates at the
+    predicted frequency (mean spacing of its extrema over 20 cycles) to 1e-3."""
+    omega, _ = _precessing(25.0, 150.0, fast=False)
+    frequency = np.max(rotlab.stability(CONFIGS / "lagrange.toml", overrides={
+        "initial.omega": omega, "initial.euler_313_deg": [0, 25.0, 0]}).eigenvalues.imag)
+    traj = rotlab.simulate(CONFIGS / "lagrange.toml", method="dop853", duration=2.0, overrides={
+        "initial.omega": omega, "initial.euler_313_deg": [0, 25.0 + np.degrees(1e-4), 0], "time.sample_rate": 5000,
+        "solver.rtol": 1e-12, "solver.atol": 1e-14})
+    theta = traj.euler_angles[:, 1]
+    turning = np.flatnonzero(np.diff(np.sign(np.diff(theta))) != 0) + 1  # maxima and minima of θ
+    period = 2.0 * np.mean(np.diff(traj.t[turning]))
+    assert 2 * np.pi / period == pytest.approx(frequency, rel=1e-3)
