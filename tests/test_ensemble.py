@@ -35,12 +35,15 @@ METHOD_SCENES = [  # (config, time.end, method, solver changes)
     ("sweep_flip.toml", 12.0, "rkmk4", {"step": 1e-3}),
     ("sweep_flip.toml", 12.0, "dmv", {"step": 5e-3, "order": 8}),
     ("sweep_flip.toml", 12.0, "dop853", {}),
+    ("sweep_flip.toml", 12.0, "taylor", {}),
     ("sweep_flip.toml", 12.0, "rk4", {}),  # the step from each case's own probe
     ("lagrange.toml", 1.0, "rk4", {"step": 1e-4}),
     ("lagrange.toml", 1.0, "splitting", {}),
     ("lagrange.toml", 1.0, "dop853", {}),
+    ("lagrange.toml", 1.0, "taylor", {"order": 12}),
     ("general.toml", 1.0, "rkmk4", {"step": 1e-3}),
     ("general.toml", 1.0, "dop853", {}),
+    ("general.toml", 1.0, "taylor", {}),
 ]
 
 

@@ -23,7 +23,26 @@ from rotlab.methods.stepping import CHUNK_STEPS, nonfinite_after
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import reference_of, runs_of
 
-ADAPTIVE_KERNELS = ("dop853",)  # adaptive methods with an ensemble kernel (fixed-step ones all have one)
+def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs) -> dict:
+    from rotlab.ensemble.kernels import dop853_ensemble
+
+    dop853_ensemble(y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, counters, *outputs)
+    return {"rtol": settings.rtol, "atol": settings.atol}
+
+
+def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs) -> dict:
+    from rotlab.ensemble.kernels import taylor_ensemble
+
+    order = method.checked_order(settings)
+    taylor_ensemble(y0, t, order, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, *method.constants(scene),
+                    counters, *outputs)
+    return {"order": order, "rtol": settings.rtol, "atol": settings.atol}
+
+
+# adaptive methods with an ensemble kernel, each run as its single run is (fixed-step ones all have one):
+# run(scene, method, settings, t, y0, counters, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept,
+# kept_t, kept_count) → the run's details
+ADAPTIVE_KERNELS = {"dop853": _dop853, "taylor": _taylor}
 
 
 def has_ensemble_kernel(method: object) -> bool:
@@ -121,11 +140,14 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     failure: list[str | None] = [None] * b
     if method.adaptive:
         counters = np.zeros((b, 3), dtype=np.int64)
-        with parallel_chunksize(1):  # (cases of unequal cost: each thread takes the next case)
-            kernels.dop853_ensemble(y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, case, shared,
-                                    applies, forces, status, valid, counters, last, acc, where, stride, kept, kept_t, kept_count)
+        try:
+            with parallel_chunksize(1):  # (cases of unequal cost: each thread takes the next case)
+                run = ADAPTIVE_KERNELS[method.name](scene, method, settings, t, y0, counters, case, shared, applies, forces, status, valid,
+                                                   last, acc, where, stride, kept, kept_t, kept_count)
+        except InputError as exc:
+            return exc
         steps, rejected, evaluations = counters[:, 0].copy(), counters[:, 1].copy(), counters[:, 2].copy()
-        details = [{"rtol": settings.rtol, "atol": settings.atol}] * b
+        details = [run] * b
     else:
         try:
             order = method.order(settings)

@@ -7,8 +7,9 @@ Fixed-step methods (``advance(y, times, out, i, substeps, max_steps, model, *ext
 ``rotlab.methods.fixed_step``), named by a string the kernel is compiled for (``advance_of``:
 a kernel passed as an argument would be a function pointer, which numba cannot cache), run in windows of ``WINDOW`` samples: a fixed step starts each
 sample interval afresh, so the windows change no bit, and a case needs WINDOW rows of memory
-whatever its length.  ``dop853`` runs over the whole sample grid in one call, as a single run
-does (its steps straddle samples: a window would change them), so a case holds its N rows while it runs.
+whatever its length.  ``dop853`` and ``taylor`` run over the whole sample grid, as a single run
+does (their steps straddle samples and stop at the grid's end: a window would change them), so
+a case holds its N rows while it runs.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from numba import literally, njit, prange, types
 from numba.extending import overload
 
 from rotlab.core.dop853 import dop853_advance
+from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK
 from rotlab.ensemble.observe import observe_rows
@@ -158,9 +160,28 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
         kept_count[b] = count[0]
 
 
+@njit(cache=True)
+def _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+                  kept_count):
+    """Case b's report from its whole grid of ``rows`` (samples [0, i) made, ``code`` its status):
+    its observables, its last valid state, its kept samples."""
+    if code != OK:
+        i = _finite_rows(rows, 1, i)
+    folded = np.empty(acc.shape[1])  # (this case's own: a row of ``acc`` shares cache lines with its neighbours')
+    observe_rows(times, rows, 0, i, True, case[b], shared, applies, forces, folded)
+    store_row(acc, b, folded)
+    count = np.zeros(1, dtype=np.int64)
+    if keep[b] >= 0:
+        _keep(rows, times, 0, i, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
+        _keep_last(rows[i - 1], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
+    status[b], valid[b] = code, i
+    store_row(last, b, rows[i - 1])
+    kept_count[b] = count[0]
+
+
 @njit(cache=True, parallel=True)
-def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, case, shared, applies, forces,
-                    status, valid, counters, last, acc, keep, stride, kept, kept_t, kept_count):
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces,
+                    status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations)."""
     n = times.shape[0]
     for b in prange(y0.shape[0]):
@@ -168,7 +189,7 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, case, shared
         rows = np.empty((n, STATE_SIZE))
         store_row(rows, 0, y)
         mine = own_model(model)
-        counted = np.zeros(3, dtype=np.int64)  # (this case's own, as ``folded``: no cache line shared with another case's)
+        counted = np.zeros(3, dtype=np.int64)  # (this case's own, as its observables are)
         code, i, t, h, attempts = OK, 1, times[0], 0.0, 0
         while i < n and attempts < max_steps:  # in calls of ``chunk`` attempts, as ``stepping.run_chunks`` makes them
             before = counted[0] + counted[1]
@@ -177,17 +198,30 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, case, shared
             attempts += counted[0] + counted[1] - before
             if code != OK:
                 break
-        if code != OK:
-            i = _finite_rows(rows, 1, i)
-        folded = np.empty(acc.shape[1])
-        observe_rows(times, rows, 0, i, True, case[b], shared, applies, forces, folded)
-        store_row(acc, b, folded)
         for m in range(3):
             counters[b, m] = counted[m]
-        count = np.zeros(1, dtype=np.int64)
-        if keep[b] >= 0:
-            _keep(rows, times, 0, i, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
-            _keep_last(rows[i - 1], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
-        status[b], valid[b] = code, i
-        store_row(last, b, rows[i - 1])
-        kept_count[b] = count[0]
+        _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+                      kept_count)
+
+
+@njit(cache=True, parallel=True)
+def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, c0, T, lever_force, flags, counters, case, shared, applies,
+                    forces, status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
+    """``fixed_step_ensemble`` for ``taylor`` at ``order`` (its ``kernel_constants`` c0, T,
+    lever_force, flags; ``counters[b, 0]``: steps)."""
+    n = times.shape[0]
+    for b in prange(y0.shape[0]):
+        y = y0[b].copy()
+        rows = np.empty((n, STATE_SIZE))
+        store_row(rows, 0, y)
+        mine = own_model(model)
+        counted = np.zeros(1, dtype=np.int64)
+        code, i, t = OK, 1, times[0]
+        while i < n and counted[0] < max_steps:  # in calls of ``chunk`` steps, as ``stepping.run_chunks`` makes them
+            code, i, t = taylor_advance(y, t, times, rows, i, order, rtol, atol, min(chunk, max_steps - counted[0]), mine, c0, T,
+                                        lever_force, flags, counted)
+            if code != OK:
+                break
+        counters[b, 0] = counted[0]
+        _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+                      kept_count)

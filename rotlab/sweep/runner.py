@@ -1,5 +1,5 @@
 """Run a sweep's cases: local processes (default), a Dask cluster (``--dask``), or — when only
-initial conditions vary and the method has an ensemble kernel (every fixed-step method, dop853)
+initial conditions vary and the method has an ensemble kernel (every fixed-step method, dop853, taylor)
 — blocks of cases through the ensemble kernels in this process (``rotlab.ensemble``), each
 case's observables reduced as it runs.
 When only initial conditions vary, the local workers run every case with one method chosen here

@@ -63,11 +63,20 @@ class Taylor:
             return settings.order
         return kernel.default_order(settings.rtol)
 
-    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+    def checked_order(self, settings: Settings) -> int:
+        """``order_for``, an ``InputError`` outside MIN_ORDER … MAX_ORDER."""
         order = self.order_for(settings)
         if not MIN_ORDER <= order <= MAX_ORDER:
             raise InputError("solver.order", f"taylor takes orders {MIN_ORDER} to {MAX_ORDER}, not {order}")
-        c0, T, lever_force, flags = scene.rigid.kernel_constants(self.name, None, lambda: kernel_constants(scene))
+        return order
+
+    def constants(self, scene: Scene) -> tuple:
+        """``kernel_constants`` of the scene, made once per body and loads."""
+        return scene.rigid.kernel_constants(self.name, None, lambda: kernel_constants(scene))
+
+    def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
+        order = self.checked_order(settings)
+        c0, T, lever_force, flags = self.constants(scene)
         model = scene.model
         y = initial_state(scene)
         counters = np.zeros(1, dtype=np.int64)
