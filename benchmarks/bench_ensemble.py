@@ -7,7 +7,7 @@ cases each solved alone (``Method.solve``, the single run's integration, without
 Problems: the free body of configs/sweep_flip.toml (20 s at 200 samples/s, ω₀ dispersed as the
 sweep disperses it) and the heavy top of configs/lagrange.toml (10 s), each case from a perturbed ω₀.
 Fixed-step methods at a given step (rk4, splitting, rkmk4: h = 1e-3 s on the free body, 1e-4 s on the
-top; dmv at order 8, h = 5e-3 s), dop853 at the file's rtol.  Columns: per-case solve time alone
+top; dmv at order 8, h = 5e-3 s), dop853 and taylor at the file's rtol.  Columns: per-case solve time alone
 (median of the first 16 cases), the ensemble's per-case time on 1 and 2 threads (median of
 ``--repeats`` calls), their ratio to the solve alone, the 2-thread speed-up, body-steps/s and
 cases/s on 2 threads.  States are bit-identical to the solve alone (tests/test_ensemble.py).
@@ -35,9 +35,9 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 PROBLEMS = {  # name → (file, changes, spread of ω₀ (rad/s), per method: solver settings)
     "free body (sweep_flip)": ("sweep_flip.toml", {}, 0.05, {
         "rk4": {"step": 1e-3}, "splitting": {"step": 1e-3}, "rkmk4": {"step": 1e-3}, "dmv": {"step": 5e-3, "order": 8},
-        "dop853": {}}),
+        "dop853": {}, "taylor": {}}),
     "heavy top (lagrange, 10 s)": ("lagrange.toml", {"end": 10.0}, 0.5, {
-        "rk4": {"step": 1e-4}, "splitting": {"step": 1e-4}, "rkmk4": {"step": 1e-4}, "dop853": {}}),
+        "rk4": {"step": 1e-4}, "splitting": {"step": 1e-4}, "rkmk4": {"step": 1e-4}, "dop853": {}, "taylor": {}}),
 }
 
 

@@ -232,7 +232,7 @@ def ensemble_plan(p: SweepPlan) -> EnsemblePlan | None:
         choice = shared_choice(p)
         if choice is None or choice.own:
             return None
-        method, settings, why = get_method(choice.method), choice.settings, choice.why
+        method, settings, why = get_method(choice.method), choice.settings, f"one method for all cases: {choice.label}: {choice.why}"
     else:
         method, settings, why = get_method(solver.method), Settings.of(solver), "as the file asks"
     if not has_ensemble_kernel(method) or unsupported_scene(scene) is not None or method.unsupported(scene) is not None:
