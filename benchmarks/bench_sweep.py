@@ -13,6 +13,9 @@ a child process, beside the parts of one case measured in this process:
   ``run_sweep_chunk``), per case, with the sweep's one method (``shared_choice``: only initial
   states vary) when the code measured has it, and the time that choice takes in the main
   process, per case;
+* ensemble: a block of 1,024 new cases validated, run through the ensemble kernels and reported
+  (``run_ensemble_chunk``: what `rotlab sweep` does here when the one method has an ensemble
+  kernel), per case;
 * round trip: a worker's task that does nothing, handed over and answered (IPC);
 * sweep: the whole `rotlab sweep` wall time (start-up, validation, workers, results files and
   the comparison recording included) divided by the number of cases; with psutil installed,
@@ -97,7 +100,7 @@ def main() -> None:
     from rotlab.parallel import run_tasks
     from rotlab.scene.scene import build_scene
     from rotlab.sweep.cases import case_scenario
-    from rotlab.sweep.runner import CHUNK_CASES, outcomes_of, plan, run_sweep_chunk
+    from rotlab.sweep.runner import CHUNK_CASES, ensemble_plan, outcomes_of, plan, run_ensemble_chunk, run_sweep_chunk
 
     try:
         from rotlab.sweep.shared_choice import shared_choice
@@ -142,6 +145,12 @@ def main() -> None:
         fresh = p.cases[3 * third:] or p.cases  # cases auto's cache has not seen (when there are enough)
         tasks = [fresh[k:k + CHUNK_CASES] for k in range(0, min(len(fresh), 20 * CHUNK_CASES), CHUNK_CASES)]
         worker = _median_us(lambda cases: run_sweep_chunk(p.raw, p.base, p.source, cases, *choice), tasks) / CHUNK_CASES
+        in_kernels = ensemble_plan(p)
+        blocks = [fresh[k:k + 1024] for k in range(0, min(len(fresh), 5 * 1024), 1024)]
+        if in_kernels is not None:
+            run_ensemble_chunk(p.raw, p.base, p.source, blocks[0][:64], in_kernels, frozenset())  # kernels loaded
+        ensemble = (None if in_kernels is None else
+                    _median_us(lambda cases: run_ensemble_chunk(p.raw, p.base, p.source, cases, in_kernels, frozenset()), blocks) / 1024)
         stamps: list[float] = []
         begun = time.perf_counter()
         run_tasks(operator.pos, [(1,)] * 2000, 1, preload=(), on_end=lambda end: stamps.append(time.perf_counter() - begun))
@@ -155,6 +164,7 @@ def main() -> None:
             (f"report ({CHUNK_CASES} cases at once), per case", report),
             (f"worker's task ({CHUNK_CASES} cases), per case", worker),
             ("the sweep's one choice (main process), per case", choosing),
+            *([("ensemble block (1,024 cases), per case", ensemble)] if ensemble is not None else []),
             ("round trip of an empty task (1 worker)", round_trip)]
     rows += [(f"rotlab sweep -j {jobs}, wall / cases", us) for jobs, us in sweep.items()]
     for name, us in rows:
