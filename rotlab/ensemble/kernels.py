@@ -161,6 +161,16 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
 
 
 @njit(cache=True)
+def _start_whole(y0, b, n, model, counts):
+    """Case b's state, its grid of ``n`` rows (row 0 its first sample), its own copy of the model
+    and its own ``counts`` counters (none shares a cache line or a reference count with another case's)."""
+    y = y0[b].copy()
+    rows = np.empty((n, STATE_SIZE))
+    store_row(rows, 0, y)
+    return y, rows, own_model(model), np.zeros(counts, dtype=np.int64)
+
+
+@njit(cache=True)
 def _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                   kept_count):
     """Case b's report from its whole grid of ``rows`` (samples [0, i) made, ``code`` its status):
@@ -185,11 +195,7 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, ca
     """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations)."""
     n = times.shape[0]
     for b in prange(y0.shape[0]):
-        y = y0[b].copy()
-        rows = np.empty((n, STATE_SIZE))
-        store_row(rows, 0, y)
-        mine = own_model(model)
-        counted = np.zeros(3, dtype=np.int64)  # (this case's own, as its observables are)
+        y, rows, mine, counted = _start_whole(y0, b, n, model, 3)
         code, i, t, h, attempts = OK, 1, times[0], 0.0, 0
         while i < n and attempts < max_steps:  # in calls of ``chunk`` attempts, as ``stepping.run_chunks`` makes them
             before = counted[0] + counted[1]
@@ -211,11 +217,7 @@ def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, c0, T
     lever_force, flags; ``counters[b, 0]``: steps)."""
     n = times.shape[0]
     for b in prange(y0.shape[0]):
-        y = y0[b].copy()
-        rows = np.empty((n, STATE_SIZE))
-        store_row(rows, 0, y)
-        mine = own_model(model)
-        counted = np.zeros(1, dtype=np.int64)
+        y, rows, mine, counted = _start_whole(y0, b, n, model, 1)
         code, i, t = OK, 1, times[0]
         while i < n and counted[0] < max_steps:  # in calls of ``chunk`` steps, as ``stepping.run_chunks`` makes them
             code, i, t = taylor_advance(y, t, times, rows, i, order, rtol, atol, min(chunk, max_steps - counted[0]), mine, c0, T,
