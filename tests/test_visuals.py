@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import glob
+import os
 import subprocess
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -59,9 +62,11 @@ def _has_vulkan() -> bool:
 
 
 @pytest.mark.skipif(not _has_vulkan(), reason="no Vulkan driver: install mesa-vulkan-drivers libvulkan1 (CI does)")
-def test_snapshot_renders_the_viewer(cli, tmp_path, euler):
+def test_snapshot_renders_the_viewer(cli, tmp_path, euler, monkeypatch):
     from PIL import Image
 
+    tag = f"{os.getpid()}-{time.monotonic_ns()}"
+    monkeypatch.setenv("ROTLAB_SNAPSHOT_TEST", tag)  # the viewer inherits it: ours is told from another test's
     write_recording(euler, tmp_path / "e.rrd")
     result = cli("snapshot", "e.rrd", "-o", "shot.png", "--time", "2.5", "--size", "960x540")
     assert result.exit_code == 0, result.output
@@ -69,8 +74,18 @@ def test_snapshot_renders_the_viewer(cli, tmp_path, euler):
     assert image.size[0] >= 960 and image.size[1] >= 540  # logical points; HiDPI may double
     pixels = np.asarray(image.convert("L"), dtype=float)
     assert pixels.std() > 10.0  # a drawn viewer, not a blank frame
-    leftover = subprocess.run(["pgrep", "-f", "rerun.*--headless.*--screenshot|rerun_cli/rerun --headless"], capture_output=True, text=True)
-    assert not leftover.stdout.strip(), "the headless viewer outlived the snapshot"
+    found = subprocess.run(["pgrep", "-f", "rerun.*--headless.*--screenshot|rerun_cli/rerun --headless"], capture_output=True, text=True)
+    assert not [pid for pid in found.stdout.split() if _has_environment(pid, f"ROTLAB_SNAPSHOT_TEST={tag}")], \
+        "the headless viewer outlived the snapshot"
+
+
+def _has_environment(pid: str, entry: str) -> bool:
+    """Process ``pid`` (still alive) has ``entry`` in its environment: a viewer this test started,
+    even if it outlived its parent (another test's viewer, under pytest -n 2, has another tag)."""
+    try:
+        return entry.encode() in Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
+    except OSError:
+        return False
 
 
 @pytest.mark.skipif(not _has_vulkan(), reason="no Vulkan driver: install mesa-vulkan-drivers libvulkan1 (CI does)")
