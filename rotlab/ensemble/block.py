@@ -23,6 +23,7 @@ from rotlab.methods.stepping import CHUNK_STEPS, nonfinite_after
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import reference_of, runs_of
 
+
 def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs) -> dict:
     from rotlab.ensemble.kernels import dop853_ensemble
 
