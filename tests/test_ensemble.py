@@ -130,7 +130,7 @@ def test_only_the_compared_cases_keep_series_and_the_table_is_in_case_order(writ
     assert run.outcomes == [] and len(results) == 130
     assert sorted(o.index for o in results.compared) == sorted(compared_cases(130)) and len(results.compared) == COMPARED_CASES
     assert all(o.t is not None and o.t[-1] == 0.2 for o in results.compared)
-    rows = results.rows()
+    rows = results.table(results.in_case_order())
     assert [r[0] for r in rows] == list(range(130)) and {r[results.header.index("status")] for r in rows} == {"pass"}
 
 

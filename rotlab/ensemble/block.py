@@ -19,7 +19,7 @@ from rotlab.core.kernel_status import NONFINITE, OK
 from rotlab.ensemble import observe as ob
 from rotlab.errors import InputError
 from rotlab.methods.base import Settings
-from rotlab.methods.stepping import CHUNK_STEPS, nonfinite_after
+from rotlab.methods.stepping import CHUNK_STEPS, budget_message, nonfinite_after, step_floor_message
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import reference_of, runs_of
 
@@ -174,10 +174,10 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
             continue
         if status[k] == NONFINITE:
             failure[k] = nonfinite_after(float(t[valid[k] - 1]), float(t[min(valid[k], n - 1)]), last[k])
-        elif status[k] != OK:
-            failure[k] = f"step size fell below the floating-point resolution after t = {t[valid[k] - 1]:.9g} s (the solution is singular or the tolerances too tight)"
+        elif status[k] != OK:  # (the kernels keep the integrator's time to themselves: the last sample says where)
+            failure[k] = step_floor_message(f"after t = {t[valid[k] - 1]:.9g} s")
         elif valid[k] < n:
-            failure[k] = f"step budget of {settings.max_steps:,} steps exhausted at t = {t[valid[k] - 1]:.9g} s (raise solver.max_steps)"
+            failure[k] = budget_message(settings.max_steps, float(t[valid[k] - 1]))
     ran = valid > 0
     folded = ob.max_drifts(acc, case)
     drift = {name: np.where(ran, folded[:, k], np.nan) for k, name in enumerate(ob.INVARIANTS) if applies[k]}

@@ -140,7 +140,7 @@ def run_chunks(
     now = integrator_time or (lambda: float(t[i - 1]))
 
     def exhausted() -> str:
-        return f"step budget of {max_steps:,} steps exhausted at t = {now():.9g} s (raise solver.max_steps)"
+        return budget_message(max_steps, now())
 
     faults.clear()
     try:
@@ -252,8 +252,18 @@ def adaptive_failure_message(step_too_small: bool, t_now: float, times: np.ndarr
     """Why an adaptive method stopped: its step fell below the floating-point resolution at
     ``t_now``, or the state became non-finite (see ``nonfinite_message``)."""
     if step_too_small:
-        return f"step size fell below the floating-point resolution at t = {t_now:.9g} s (the solution is singular or the tolerances too tight)"
+        return step_floor_message(f"at t = {t_now:.9g} s")
     return nonfinite_message(times, i, state)
+
+
+def step_floor_message(where: str) -> str:
+    """An adaptive step fell below the floating-point resolution ``where`` ("at t = … s")."""
+    return f"step size fell below the floating-point resolution {where} (the solution is singular or the tolerances too tight)"
+
+
+def budget_message(max_steps: int, t_now: float) -> str:
+    """``solver.max_steps`` ran out at ``t_now``."""
+    return f"step budget of {max_steps:,} steps exhausted at t = {t_now:.9g} s (raise solver.max_steps)"
 
 
 def nonfinite_message(t: np.ndarray, i: int, state: np.ndarray) -> str:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rotlab.sweep.results import OBSERVABLES, STATUSES, TERMINAL_ROWS, Results
+from rotlab.sweep.results import STATUSES, TERMINAL_ROWS, Results
 
 
 WRITE_ROWS = 16_384  # rows made at a time for the final files (their memory, not the sweep's, bounds it)
@@ -37,15 +37,9 @@ def write_results(results: Results, outdir: Path) -> list[Path]:
                 writer.writerows(results.table(rows))
 
     def column(name: str, rows: np.ndarray) -> pa.Array:
-        if name == "status":
-            return pa.array([STATUSES[k] for k in results.column(name)[rows].tolist()], type=pa.string())
-        if name == "method":
-            return pa.array([results.methods[k] if results.methods else None for k in results.column(name)[rows].tolist()], type=pa.string())
-        if name == "message":
-            return pa.array([results.messages.get(k) or None for k in rows.tolist()], type=pa.string())
-        values = results.column(name)[rows]
-        if name in OBSERVABLES or name == "seconds":
-            values = np.round(values, 9 if name in OBSERVABLES else 6)
+        values = results.values(name, rows)
+        if isinstance(values, list):
+            return pa.array([text or None for text in values], type=pa.string())
         return pa.array(values, mask=np.isnan(values)) if values.dtype.kind == "f" else pa.array(values)
 
     def write_parquet(tmp: Path) -> None:

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
 OBSERVABLES = ("flip_period_s", "max_nutation_deg")  # rotlab.observables
 STATUSES = ("pass", "fail", "error")
+DIGITS = {"seconds": 6, **{name: 9 for name in OBSERVABLES}}  # decimals the files keep (the rest: every digit)
 FIXED = ("status", "method", "steps", "seconds")
 PARTIAL_RESULTS = "results.partial.csv"  # the rows as cases finish (module docstring)
 TERMINAL_ROWS = 50  # a larger sweep's terminal table shows only the cases that did not pass
@@ -91,28 +92,29 @@ class Results:
         """Rows of the cases that did not pass."""
         return np.flatnonzero(self.status() != 0)
 
+    def values(self, name: str, rows: np.ndarray) -> np.ndarray | list[str]:
+        """Column ``name`` at ``rows`` as the files hold it: numbers rounded to their ``DIGITS`` (NaN
+        where undefined), the text columns as strings ("" for none)."""
+        if name == "status":
+            return [STATUSES[k] for k in self.column(name)[rows].tolist()]
+        if name == "method":
+            return [self.methods[k] if self.methods else "" for k in self.column(name)[rows].tolist()]
+        if name == "message":
+            return [self.messages.get(k, "") for k in rows.tolist()]
+        values = self.column(name)[rows]
+        return np.round(values, DIGITS[name]) if name in DIGITS else values
+
     def table(self, rows: np.ndarray) -> list[list[object]]:
-        """The given rows as the files hold them (empty cells for undefined values)."""
+        """The given rows as the CSV holds them (empty cells for undefined numbers)."""
         rows = np.asarray(rows, dtype=np.int64)
 
-        def cells(name: str, digits: int | None = None) -> list[object]:
-            values = self.column(name)[rows]
-            if values.dtype.kind in "iu":
-                return values.tolist()
-            shown = values if digits is None else np.round(values, digits)
-            return ["" if not math.isfinite(v) else v for v in shown.tolist()]
+        def cells(name: str) -> list[object]:
+            values = self.values(name, rows)
+            if isinstance(values, list) or values.dtype.kind in "iu":
+                return values if isinstance(values, list) else values.tolist()
+            return ["" if not math.isfinite(v) else v for v in values.tolist()]
 
-        columns = [cells("case"), *[cells(p) for p in self.params],
-                   [STATUSES[k] for k in self.column("status")[rows].tolist()],
-                   [self.methods[k] if self.methods else "" for k in self.column("method")[rows].tolist()],
-                   cells("steps"), cells("seconds", 6), *[cells(n, 9) for n in OBSERVABLES],
-                   *[cells(f"max_drift_{n}") for n in self.invariants],
-                   [self.messages.get(k, "") for k in rows.tolist()]]
-        return [list(r) for r in zip(*columns)]
-
-    def rows(self) -> list[list[object]]:
-        """Every row, in case order."""
-        return self.table(self.in_case_order())
+        return [list(r) for r in zip(*(cells(name) for name in self.header))]
 
     def in_case_order(self) -> np.ndarray:
         return np.argsort(self.column("case"), kind="stable")

@@ -247,11 +247,6 @@ def block_size(size: int, seconds: float) -> int:
     return int(min(BLOCK_CASES, max(FIRST_BLOCK, size * BLOCK_SECONDS / max(seconds, 1e-3))))
 
 
-def run_block_of_cases(p: SweepPlan, plan: EnsemblePlan, cases: list[Case], compared: frozenset[int] | None) -> list[CaseOutcome]:
-    """One ensemble kernel call for ``cases``: ``run_ensemble_chunk`` of the plan's file."""
-    return run_ensemble_chunk(p.raw, p.base, p.source, cases, plan, compared)
-
-
 def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case], plan: EnsemblePlan,
                        compared: frozenset[int] | None) -> list[CaseOutcome]:
     """One ensemble kernel call for ``cases`` (validated here: an invalid case is an "error"
@@ -356,10 +351,10 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         compared = compared_cases(len(p.cases))
     collected: list[CaseOutcome] = []
     deliver = on_outcomes or collected.extend
-    plan = ensemble_plan(p) if dask_address is None and timeout is None else None
+    plan = ensemble_plan(p) if timeout is None else None
     if warm is not None and (plan is not None or dask_address is not None):
         warm.release()  # the cases run elsewhere: the warm workers would only take the cores
-    if plan is not None:
+    if plan is not None and dask_address is None:
         import numba
 
         started, done, stopped, size = time.perf_counter(), 0, None, FIRST_BLOCK
@@ -370,7 +365,7 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
                 while done < len(p.cases):
                     block_started = time.perf_counter()
                     block = p.cases[done:done + size]
-                    deliver(run_block_of_cases(p, plan, block, compared))
+                    deliver(run_ensemble_chunk(p.raw, p.base, p.source, block, plan, compared))
                     done += len(block)
                     size = block_size(size, time.perf_counter() - block_started)
             except Stopped as stop:  # (between kernel calls: a block is not cut short)
@@ -387,18 +382,17 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     if dask_address is not None:
         from rotlab.cluster import run_on_dask
 
-        dask_plan = ensemble_plan(p)
-        size = BLOCK_CASES if dask_plan is not None else CHUNK_CASES
+        size = BLOCK_CASES if plan is not None else CHUNK_CASES
         chunks = [p.cases[i:i + size] for i in range(0, len(p.cases), size)]
-        if dask_plan is not None:  # each task a block of cases through the ensemble kernels
-            run = run_on_dask(run_ensemble_chunk, [(p.raw, p.base, p.source, chunk, dask_plan, compared) for chunk in chunks],
+        if plan is not None:  # each task a block of cases through the ensemble kernels
+            run = run_on_dask(run_ensemble_chunk, [(p.raw, p.base, p.source, chunk, plan, compared) for chunk in chunks],
                               dask_address, retries=retries)
         else:
             run = run_on_dask(run_sweep_chunk, [(p.raw, p.base, p.source, chunk, None, compared) for chunk in chunks],
                               dask_address, retries=retries)
         outcomes, _ = collect_outcomes(chunks, run)
         deliver([outcomes[case.index] for case in p.cases])
-        how = f"Dask cluster at {dask_address}" + (f", ensemble kernels ({dask_plan.method_name}), {size} cases a task" if dask_plan else "")
+        how = f"Dask cluster at {dask_address}" + (f", ensemble kernels ({plan.method_name}), {size} cases a task" if plan else "")
         return SweepRun(sorted(collected, key=lambda o: o.index), how, run.stopped)
     workers = max(1, min(jobs, len(p.cases)))
     size = 1 if timeout is not None else chunk_size(len(p.cases), workers)
