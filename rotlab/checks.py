@@ -143,8 +143,17 @@ def flip_period(t: np.ndarray, component: np.ndarray) -> tuple[np.ndarray, np.nd
     first = np.argmax(changes, axis=-1)[..., None]
     last = changes.shape[-1] - 1 - np.argmax(changes[..., ::-1], axis=-1)[..., None]
     with np.errstate(divide="ignore", invalid="ignore"):  # no reversal: first = last = 0, maybe 0/0
-        period = 2.0 * (_crossing(t, c, last) - _crossing(t, c, first))[..., 0] / np.maximum(reversals - 1, 1)
-    return np.where(reversals >= MIN_REVERSALS, period, math.nan)[()], reversals[()]
+        period = period_of(_crossing(t, c, first)[..., 0], _crossing(t, c, last)[..., 0], reversals)
+    return period[()], reversals[()]
+
+
+def period_of(first: np.ndarray, last: np.ndarray, reversals: np.ndarray) -> np.ndarray:
+    """The flip period from the first and last reversal times and the count: twice their mean
+    spacing, 2 (last − first)/(reversals − 1); NaN with fewer than ``MIN_REVERSALS`` (also used by
+    the ensemble, which folds the crossings as the samples come: ``rotlab.ensemble.observe``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        period = 2.0 * (last - first) / np.maximum(reversals - 1, 1)
+    return np.where(reversals >= MIN_REVERSALS, period, math.nan)
 
 
 def _flip_check(spec, period: float, reversals: int) -> CheckResult:

@@ -16,9 +16,7 @@ import time
 import numpy as np
 import pytest
 
-from rotlab import checks
 from rotlab.config.loader import parse_scenario, read_toml
-from rotlab.ensemble import observe
 from rotlab.ensemble.block import run_block
 from rotlab.methods.base import Settings
 from rotlab.methods.registry import get_method
@@ -88,10 +86,6 @@ def test_each_case_of_an_ensemble_is_its_single_run_and_reports_its_observables(
         for name, value in outcome.drift.items():
             assert abs(block.max_drift[name][k] - value) <= 1e-15, name
     assert any(np.isfinite(block.flip_period)) or config != "sweep_flip.toml"  # the flip is measured where there is one
-
-
-def test_the_ensemble_observables_share_the_checks_constants():
-    assert observe.MIN_REVERSALS == checks.MIN_REVERSALS
 
 
 def test_a_case_the_step_cannot_take_is_an_error_and_the_others_run(write):

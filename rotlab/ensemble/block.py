@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import parallel_chunksize
 
+from rotlab.checks import period_of
 from rotlab.core.kernel_status import NONFINITE, OK
 from rotlab.ensemble import observe as ob
 from rotlab.errors import InputError
@@ -181,11 +182,11 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     ran = valid > 0
     folded = ob.max_drifts(acc, case)
     drift = {name: np.where(ran, folded[:, k], np.nan) for k, name in enumerate(ob.INVARIANTS) if applies[k]}
-    period = np.array([ob.flip_period(acc[k]) if ran[k] else math.nan for k in range(b)])
+    reversals = acc[:, ob.ACC_REVERSALS].astype(np.int64)  # (0 where a case did not run: no period)
+    period = period_of(acc[:, ob.ACC_FIRST], acc[:, ob.ACC_LAST], reversals)
     nutation = np.where(ran, np.degrees(np.arccos(np.where(ran, acc[:, ob.ACC_MIN_COS], 1.0))), np.nan)
     kept_rows = {k: (kept_t[where[k], :kept_count[k]].copy(), kept[where[k], :kept_count[k]].copy()) for k in keep if ran[k]}
-    return BlockResult(status, valid, steps, rejected, evaluations, failure, details, period,
-                       acc[:, ob.ACC_REVERSALS].astype(np.int64), nutation, drift, kept_rows)
+    return BlockResult(status, valid, steps, rejected, evaluations, failure, details, period, reversals, nutation, drift, kept_rows)
 
 
 def _substeps(method, scene: Scene, t: np.ndarray, settings: Settings, order: int) -> tuple[int, dict[str, object]]:

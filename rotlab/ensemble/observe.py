@@ -5,7 +5,8 @@ The same quantities a sweep reports from a stored trajectory (``rotlab.observabl
 
     flip:      c = a·ω (a: the flip axis row, user's body axis in principal components); a sign
                change of c between samples k, k+1 is a reversal at t_k − c_k (t_{k+1} − t_k)/(c_{k+1} − c_k);
-               period = 2 (last − first)/(reversals − 1), NaN with fewer than ``MIN_REVERSALS``
+               the first and last crossing times and the count are folded; the period is
+               ``rotlab.checks.period_of`` of them
     nutation:  cos ϑ = (R(Λ) e)·d = (2 q0² − 1)(e·d) + 2 (q·e)(q·d) + 2 q0 q·(e × d); max ϑ = arccos min cos ϑ
     drifts:    max |drift| of each invariant of ``rotlab.invariants.TABLE`` (its formulas, ``drifts_at``),
                from the values at the first sample: L = I ω, L_space = R(Λ) L, T = ½ ω·L,
@@ -39,7 +40,6 @@ SHARED_MOMENTS, SHARED_UP, SHARED_SYMMETRY = 0, 3, 6
 SHARED_COLUMNS = 9
 ACC_REVERSALS, ACC_FIRST, ACC_LAST, ACC_PREV_C, ACC_PREV_T, ACC_MIN_COS, ACC_DRIFT = 0, 1, 2, 3, 4, 5, 6
 ACC_COLUMNS = ACC_DRIFT + len(INVARIANTS)
-MIN_REVERSALS = 3  # as rotlab.checks.MIN_REVERSALS (checked by tests/test_ensemble.py)
 
 
 @njit(cache=True, inline="always")
@@ -140,12 +140,3 @@ def max_drifts(acc: np.ndarray, case: np.ndarray) -> np.ndarray:
             scale = case[:, column]
             np.divide(out[:, k], scale, out=out[:, k], where=scale > 0.0)
     return out
-
-
-@njit(cache=True)
-def flip_period(acc):
-    """2 (last − first)/(reversals − 1), NaN with fewer than ``MIN_REVERSALS`` reversals."""
-    reversals = acc[ACC_REVERSALS]
-    if reversals < MIN_REVERSALS:
-        return math.nan
-    return 2.0 * (acc[ACC_LAST] - acc[ACC_FIRST]) / max(reversals - 1.0, 1.0)
