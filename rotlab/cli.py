@@ -341,12 +341,13 @@ def sweep(
         withhold_pandas()  # pyarrow would import pandas (time and memory) just to ask if our arrays are Series
         try:
             sweep_plan = plan(config)
+            compared = compared_cases(len(sweep_plan.cases), _case_numbers(compare, len(sweep_plan.cases)))  # (before any file is made)
             prepare_outdir(outdir)
             exit_after_stop()
             # the results table: results.partial.csv grows as cases finish; the final files, the recording and the terminal read it
             results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / PARTIAL_RESULTS)
             run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm,
-                            on_outcomes=results.add, compared=compared_cases(len(sweep_plan.cases), _case_numbers(compare, len(sweep_plan.cases))))
+                            on_outcomes=results.add, compared=compared)
         except InputError as exc:
             _fail(exc)
         except OSError as exc:

@@ -12,6 +12,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -172,6 +173,7 @@ def test_compare_asks_for_cases_and_jobs_sets_the_kernels_threads(cli, write):
     assert _without_seconds("one") == _without_seconds("two")  # the threads change no number
     refused = cli("sweep", str(config), "-o", "three", "--compare", "130")
     assert refused.exit_code == 2 and refused.stderr.strip() == "rotlab: error: --compare: case 130 is not in this sweep: its cases are 0 … 129"
+    assert not Path("three").exists()  # refused before any file is made
 
 
 def _without_seconds(outdir: str) -> list[list[str]]:
