@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Mapping
 
@@ -21,9 +22,10 @@ from rotlab.methods.compile_time import compile_clock
 from rotlab.scene.scene import Scene, build_scene
 from rotlab.trajectory import RunStats, RunSummary, Trajectory, build_trajectory
 
-if TYPE_CHECKING:
-    import numpy as np
+import numpy as np
 
+if TYPE_CHECKING:
+    from rotlab.events import EventWatch
     from rotlab.methods.base import Method
     from rotlab.progress import StreamProgress
     from rotlab.recording.sink import RecordingSink
@@ -92,13 +94,35 @@ def run_scene(scene: Scene, progress: ProgressCallback | None = None, plan: Plan
     """Run ``scene`` whole: every sample in memory (the Python API).  ``plan``: the method, why,
     settings and sample times decided already (a sweep's one choice for all its cases), else
     ``_plan``'s."""
+    from rotlab.methods.stepping import controlled, current_control
+
     chosen, reason, settings, t = _plan(scene) if plan is None else plan
     with compile_clock() as compiling:  # numba compile / cache load, reported apart from integration
         started = time.perf_counter()
-        solution = chosen.solve(scene, t, settings, progress)
+        watch = _event_watch(scene, chosen, t, settings)
+        with controlled(replace(current_control(), watch=watch)):
+            solution = chosen.solve(scene, t, settings, progress)
         seconds = time.perf_counter() - started
     stats = _stats(chosen, reason, solution, seconds, compiling.seconds)
-    return build_trajectory(scene, solution, stats, euler_angles=scene.scenario.output.euler_angles)
+    if watch is None:
+        return build_trajectory(scene, solution, stats, euler_angles=scene.scenario.output.euler_angles)
+    if watch.final is not None:  # a terminal event ended the run: its state is the last sample
+        n = solution.valid
+        solution.t = np.append(solution.t[:n], watch.final[0])
+        solution.state = np.concatenate([solution.state[:n], watch.final[1][None, :]])
+        solution.valid = n + 1
+        stats.details = {**stats.details, "ended by": watch.ended_by}
+    traj = build_trajectory(scene, solution, stats, euler_angles=scene.scenario.output.euler_angles)
+    traj.events = watch.logs()
+    return traj
+
+
+def _event_watch(scene: Scene, chosen: Method, t: np.ndarray, settings: Settings) -> EventWatch | None:
+    """The watch that finds the scene's events on ``chosen``'s local solution (None without events)."""
+    from rotlab.events import EventWatch, compile_events
+
+    compiled = compile_events(scene)
+    return None if compiled is None else EventWatch(compiled, chosen.local_solution(scene, t, settings))
 
 
 def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | None = None,
@@ -128,7 +152,8 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
             apart = compile_apart.Outcome(True, 0.0, interrupted=True)
         writer = RecordingWriter(sink, stride=stride)
         stream = ChunkStream(scene, stats, writer, scene.scenario.output.euler_angles, progress, n, clock=compiling)
-        control = RunControl(consumer=stream, deadline=deadline, timeout=timeout)
+        watch = _event_watch(scene, chosen, t, settings)
+        control = RunControl(consumer=stream, deadline=deadline, timeout=timeout, watch=watch)
         if apart is not None and (apart.timed_out or apart.interrupted):  # stopped before the first sample
             start = scene.scenario.time.start
             stats.failure = interrupts.stopped_at(start) if apart.interrupted else timeout_message(control, start)
@@ -142,6 +167,11 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
         compiling.released()  # nothing compiles now; a compile cut short by Ctrl-C never announced its end
         final = _stats(chosen, reason, solution, seconds, compiling.seconds - compiled_before)
         vars(stats).update(vars(final))  # the chunks hold this object: the report sees the final figures
+        if watch is not None:
+            if watch.final is not None:  # a terminal event ended the run: its state is the last sample
+                stream.rows(solution.valid, np.array([watch.final[0]]), watch.final[1][None, :])
+                stats.details = {**stats.details, "ended by": watch.ended_by}
+            stream.events = watch.logs()
         stats.details = {**stats.details, "visual series": f"every {stride} samples" if stride > 1 else "every sample"}
         try:
             summary = stream.finish()

@@ -21,11 +21,22 @@ def summary_lines(run: RunSummary, config: Path, output: Path | None, wall: floa
         f"integration {stats.seconds:.3g} s{_compiling(stats.compile_seconds)}, " + (f"writing {writing:.3g} s, " if writing else "") + f"total {wall:.3g} s",
         f"  drift    {drift}  (max relative, over the run)",
     ]
+    lines += event_lines(run)
     if output is not None:
         size = output.stat().st_size if output.exists() else 0
         lines.append(f"  wrote    {output} ({size / 1e6:.2f} MB) — open with: rerun {output}")
     if live:
         lines.append(f"  live     {live}")
+    return lines
+
+
+def event_lines(run: RunSummary) -> list[str]:
+    """One line per event: how many occurrences, the first time and the mean interval."""
+    lines = []
+    for name, log in run.events.items():
+        first = f", first at t = {log.t[0]:.12g} s" if log.count else ""
+        mean = f", mean interval {float(log.intervals().mean()):.12g} s" if log.count > 1 else ""
+        lines.append(f"  event    {name}: {log.count:,} occurrence{'s' if log.count != 1 else ''}{first}{mean}")
     return lines
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from rotlab import invariants
 from rotlab.core import quaternion as quat
+from rotlab.events import EventLog
 from rotlab.methods.base import Solution
 from rotlab.rows import row_dot, row_norm, unit_rows
 from rotlab.scene.loads import potential as potential_energy
@@ -69,6 +70,7 @@ class Trajectory:
         (None: from the first row); Euler angles when ``euler_angles``, unwrapped on from
         ``previous_angles``; ``series``: values already computed (name → array)."""
         self.scene, self.stats, self.t = scene, stats, t
+        self.events: dict[str, EventLog] = {}  # name → occurrences (``rotlab.events``), set by the run
         self._state, self._reference = state, reference
         self._euler, self._previous_angles = euler_angles, previous_angles
         self.__dict__.update(series or {})  # read by the cached properties below before they compute
@@ -200,7 +202,8 @@ class Trajectory:
 
     def summary(self) -> RunSummary:
         n = self.t.shape[0]
-        return RunSummary(self.scene, self.stats, n, float(self.t[0]) if n else 0.0, float(self.t[-1]) if n else 0.0, self.max_drift())
+        return RunSummary(self.scene, self.stats, n, float(self.t[0]) if n else 0.0, float(self.t[-1]) if n else 0.0, self.max_drift(),
+                          self.events)
 
 
 def concatenate(parts: list[Trajectory]) -> Trajectory:
@@ -276,6 +279,7 @@ class RunSummary:
     start: float  # s, first sample
     end: float  # s, last valid sample
     drift: dict[str, float]  # max |relative drift| per invariant
+    events: dict[str, EventLog] = field(default_factory=dict)  # name → occurrences
 
     def max_drift(self) -> dict[str, float]:
         return self.drift

@@ -47,9 +47,9 @@ def test_the_final_layout_of_a_top_keeps_its_nutation_plots(cli, tmp_path, monke
     built = []
     original = writer.run_blueprint
 
-    def recording(traj, views):
+    def recording(traj, views, events=None):
         built.append(set(views.series))
-        return original(traj, views)
+        return original(traj, views, events)
 
     monkeypatch.setattr(writer, "run_blueprint", recording)
     result = cli("run", str(CONFIGS / "lagrange.toml"), "-q", "-o", "l.rrd", "--set", "time.sample_rate=4000")  # 40,001 samples: thinned

@@ -396,6 +396,52 @@ LOAD_MODELS: dict[str, type[_Model]] = {
 }
 
 
+EVENT_NAME_LENGTH = 40
+
+
+class Event(_Model):
+    """An event: where the formula ``when`` (the grammar of expression loads, ``up`` the direction
+    gamma shows) crosses 0 in ``direction``, located on the method's own local solution
+    (``rotlab.events``).  ``record``: formulas whose values are kept at each occurrence (a
+    Poincaré section); ``terminal``: the run stops at the ``count``-th occurrence."""
+
+    name: str
+    when: str
+    direction: Literal["rising", "falling", "both"] = "both"
+    terminal: bool = False
+    count: Annotated[int, Field(ge=1, strict=True)] = 1  # the occurrence a terminal event stops at
+    record: list[str] = []
+    constants: dict[str, Real] = {}
+    up: Vec3 = (0.0, 0.0, 1.0)  # space frame: the direction gamma shows in body components
+
+    @model_validator(mode="after")
+    def _valid(self) -> Event:
+        if not (self.name.isidentifier() and len(self.name) <= EVENT_NAME_LENGTH):
+            raise _invalid("name", f"event name {self.name!r} must be a plain identifier (letters, digits, _) of at most "
+                                   f"{EVENT_NAME_LENGTH} characters: it names the event's columns and recording path")
+        if not self.terminal and "count" in self.model_fields_set:
+            raise _invalid("count", "count applies to a terminal event: set terminal = true or remove count")
+        if float(np.linalg.norm(self.up)) == 0.0:
+            raise _invalid("up", "up must be a non-zero direction (space frame)")
+        for name in self.constants:
+            try:
+                expressions.check_constant_name(name)
+            except expressions.FormulaError as exc:
+                raise _invalid(f"constants.{name}", exc.message) from None
+        self.programs()
+        return self
+
+    def programs(self) -> list[tuple[expressions.Program, int]]:
+        """(program, stack depth) of ``when``, then of each ``record`` formula."""
+        out = []
+        for key, text in [("when", self.when), *((f"record.{k}", r) for k, r in enumerate(self.record))]:
+            try:
+                out.append(expressions.parse_formula(text, self.constants))
+            except expressions.FormulaError as exc:
+                raise _invalid(key, str(exc)) from None
+        return out
+
+
 class Time(_Model):
     """Time span and output sampling.  Samples include both ends."""
 
@@ -594,7 +640,18 @@ class Scenario(_Model):
     solver: Solver = _table(Solver)
     output: Output = _table(Output)
     checks: Checks = _table(Checks)
+    events: list[Event] = []
     sweep: Sweep | None = None  # used by `rotlab sweep`; `rotlab run` runs the base scenario
+
+    @model_validator(mode="after")
+    def _event_names_unique(self) -> Scenario:
+        seen: set[str] = set()
+        for k, event in enumerate(self.events):
+            if event.name in seen:
+                raise PydanticCustomError("rotlab", "event name '{name}' is used twice: give each event its own name",
+                                          {"key": f"events.{k}.name", "name": event.name})
+            seen.add(event.name)
+        return self
 
     @model_validator(mode="after")
     def _loads_need_body_data(self) -> Scenario:

@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from rotlab.scene.scene import Scene
 
 ProgressCallback = Callable[[int, int], None]  # (samples done, samples total)
+LocalSolution = Callable[[np.ndarray, float, float], np.ndarray]  # (state at t0, t0, t1) → the state at t1
 
 
 @dataclass
@@ -87,6 +88,12 @@ class Method(Protocol):
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         """The state at the sample times ``t`` (``t[0]`` is the initial time)."""
+
+    def local_solution(self, scene: Scene, t: np.ndarray, settings: Settings) -> LocalSolution:
+        """The method's own solution between two samples of its run over the sample times ``t``,
+        from any state: fn(y, t0, t1) is the state at t1 from y at t0 as the run steps it, so
+        that fn(y_k, t_k, t_{k+1}) is the run's next sample (events are located on it,
+        ``rotlab.events``)."""
 
     def auto_estimates(self, scene: Scene, settings: Settings, work: Work) -> list[Estimate]:
         """The runs ``auto`` may make with this method on ``scene`` (each an order and setting),

@@ -22,7 +22,7 @@ import numpy as np
 
 from rotlab.errors import InputError
 from rotlab.methods import cost
-from rotlab.methods.base import FIXED, ProgressCallback, Settings, Solution
+from rotlab.methods.base import FIXED, LocalSolution, ProgressCallback, Settings, Solution
 from rotlab.methods.stepping import CHUNK_STEPS, initial_state, nonfinite_message, run_chunks
 from rotlab.scene.scene import Scene
 
@@ -140,6 +140,21 @@ class FixedStepMethod:
             )
         return substeps, {"step": interval / substeps, "steps per sample": substeps, "order": order,
                           "step from": "solver.step" if settings.step is not None else f"rtol = {settings.rtol:g}"}
+
+    def local_solution(self, scene: Scene, t: np.ndarray, settings: Settings) -> LocalSolution:
+        """The run's ``substeps`` equal steps over [t0, t1] (``Method.local_solution``): over a
+        whole sample interval, the run's own steps."""
+        order = self.order(settings)
+        substeps, _ = self.sampling(scene, t, settings, order)
+        model, extra = scene.model, self.kernel_args(scene, order)
+        out = np.empty((2, scene.state0.shape[0]))
+
+        def advance(y0: np.ndarray, t0: float, t1: float) -> np.ndarray:
+            y = y0.copy()
+            self.kernel(y, np.array([t0, t1]), out, 1, substeps, substeps, model, *extra)
+            return y
+
+        return advance
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         order = self.order(settings)

@@ -49,10 +49,26 @@ class RowConsumer(Protocol):
 
 
 @dataclass(frozen=True)
+class Stop:
+    """What a ``RowWatch`` asks of the run: keep the first ``keep`` rows it was shown and end,
+    with ``failure`` (None: a normal end, such as a terminal event)."""
+
+    keep: int
+    failure: str | None = None
+
+
+class RowWatch(Protocol):
+    def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> Stop | None:
+        """Samples ``start, start + 1, …`` as they are made (every run, streamed or whole, the
+        initial sample first), before any consumer sees them; a ``Stop`` ends the run there."""
+
+
+@dataclass(frozen=True)
 class RunControl:
     """Run-wide controls the driver honours between kernel calls."""
 
     consumer: RowConsumer | None = None  # streaming: where the rows go
+    watch: RowWatch | None = None  # events: sees every row first, may end the run
     deadline: float | None = None  # time.monotonic() value; past it the run stops (``--timeout``)
     timeout: float | None = None  # the limit in seconds, for the message
 
@@ -136,7 +152,7 @@ def run_chunks(
     out = np.empty((min(n, WINDOW + 1) if streamed else n, STATE_SIZE))
     out[0] = y
     base, hi = 0, min(n, WINDOW + 1) if streamed else n  # the window: global samples [base, hi), out row 0 = base
-    i, steps, failure, interrupted = 1, 0, None, False
+    i, steps, failure, interrupted, ended = 1, 0, None, False, False
     now = integrator_time or (lambda: float(t[i - 1]))
 
     def exhausted() -> str:
@@ -144,6 +160,7 @@ def run_chunks(
 
     faults.clear()
     try:
+        _watched(control, 0, t[:1], out[:1])
         if streamed:  # the first row can flush (a kernel that took > FLUSH_SECONDS to load): Ctrl-C there too
             control.consumer.rows(0, t[:1], out[:1])
         while i < n:
@@ -167,12 +184,15 @@ def run_chunks(
                 done = base + valid
             elif taken == 0 and done == i:  # the rest of the budget is less than the next sample needs
                 failure = exhausted()
+            stop = _watched(control, i, t[i:done], window[i - base : done - base])
+            if stop is not None:
+                done, failure, ended = i + stop.keep, stop.failure, True
             if streamed and done > i:
                 control.consumer.rows(i, t[i:done], window[i - base : done - base])
             i = done
             if progress is not None:
                 progress(i, n)
-            if failure is not None:
+            if failure is not None or ended:
                 break
             if streamed and i == hi < n:  # window full: its last row starts the next one
                 out[0] = window[hi - base - 1]
@@ -181,6 +201,13 @@ def run_chunks(
         failure, interrupted = interrupts.stopped_at(t[i - 1]), True
     state = out[: i - base] if streamed else out
     return Solution(t=t, state=state, valid=i, steps=steps, failure=failure, interrupted=interrupted)
+
+
+def _watched(control: RunControl, start: int, t: np.ndarray, state: np.ndarray) -> Stop | None:
+    """The watch's verdict on new rows (None: no watch, no rows, or go on)."""
+    if control.watch is None or state.shape[0] == 0:
+        return None
+    return control.watch.rows(start, t, state)
 
 
 def stall_message(t_from: float, t_to: float, taken: int, t_end: float, steps_left: int, max_steps: int) -> str | None:
@@ -226,11 +253,17 @@ def evaluate_in_windows(t: np.ndarray, evaluate: Callable[[np.ndarray], np.ndarr
             stop = min(n, i + step)
             state = evaluate(t[i:stop])
             valid = _valid_rows(state, state.shape[0])
+            watched = _watched(control, i, t[i : i + valid], state[:valid])
+            if watched is not None:
+                valid, failure = watched.keep, watched.failure
             if control.consumer is not None and valid:
                 control.consumer.rows(i, t[i : i + valid], state[:valid])
             i += valid
             if progress is not None:
                 progress(i, n)
+            if watched is not None:
+                state = state[:valid]
+                break
             if valid < state.shape[0]:
                 failure = f"exact solution not finite at t = {t[i]:.9g} s"
                 state = state[:valid]

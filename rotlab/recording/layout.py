@@ -45,6 +45,8 @@ LOADS_3D = "/world/loads"  # /world/loads/<symbol>: one arrow per load at its po
 LOAD_TORQUE_BODY = "/loads/torque_body"  # [M1, M2, M3] of the non-conservative loads, body frame
 LOAD_TORQUE_SPACE = "/loads/torque_space"  # the same, space frame
 LOAD_POWER = "/loads/power"  # P = M·ω of the non-conservative loads, W
+EVENTS = "/events"  # /events/<name>: at each occurrence, the ``record`` values (else the occurrence number), markers
+SECTIONS = "/sections"  # /sections/<name>: Poincaré section, (record[0], record[1]) of every occurrence (static)
 TRAILS = (AXIS_TIP, HERPOLHODE_TRAIL, POLHODE_TRAIL)  # drawn over the trailing window
 
 LEGEND_HEADROOM = 0.45  # a plot with a legend gets this fraction of its data span above the data
@@ -75,7 +77,7 @@ class Plot:
     contents: tuple[str, ...] = ()
 
 
-MOTION, ENERGY_TAB = "Motion", "Energy and loads"
+MOTION, ENERGY_TAB, EVENTS_TAB = "Motion", "Energy and loads", "Events"
 MAX_PLOTS_ONE_TAB = 6  # up to a 2 × 3 grid in one tab; more: motion and energy in two tabs
 
 
@@ -111,12 +113,14 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
 
 
 def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None, active: str = MOTION,
-              eye: tuple[np.ndarray, np.ndarray] | None = None, span: tuple[float, float] | None = None) -> rrb.Blueprint:
+              eye: tuple[np.ndarray, np.ndarray] | None = None, span: tuple[float, float] | None = None,
+              events: list[rrb.View] | None = None) -> rrb.Blueprint:
     """The default layout: the 3D view (and the run panel as a tab) on the left, on the right the
     plots in tabs (``groups``), each a two-column grid; ``active`` is the tab shown first; ``eye``
     (position, look target) the 3D view's default camera (the one labels are laid out for).  Trails show the last ``trail_seconds`` before the time cursor
     (the whole paths stay, dimmed); legends sit in the top-right corner, above the data; the plots'
-    time axis shows ``span`` (s: the whole run, not a window around the time cursor)."""
+    time axis shows ``span`` (s: the whole run, not a window around the time cursor); ``events``:
+    the views of the run's events, in a tab of their own (``EVENTS_TAB``)."""
     overrides = {}
     if trail_seconds is not None:
         window = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.cursor_relative(seconds=-trail_seconds),
@@ -124,6 +128,9 @@ def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None,
         overrides = {trail: rrb.VisibleTimeRanges([window]) for trail in TRAILS}
     names = [name for name, plot_list in groups.items() if plot_list]
     tabs = [rrb.Grid(*[_view(p, span) for p in groups[name]], grid_columns=2, name=name) for name in names]
+    if events:
+        tabs.append(rrb.Grid(*events, grid_columns=2, name=EVENTS_TAB))
+        names.append(EVENTS_TAB)
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Tabs(
@@ -141,9 +148,14 @@ def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None,
 
 
 
-def _view(p: Plot, span: tuple[float, float] | None = None) -> rrb.TimeSeriesView:
-    whole = None if span is None else rrb.TimeAxis(view_range=rrb.TimeRange(
+def whole_span(span: tuple[float, float] | None) -> rrb.TimeAxis | None:
+    """A plot's time axis over ``span`` (s), not a window around the time cursor."""
+    return None if span is None else rrb.TimeAxis(view_range=rrb.TimeRange(
         start=rrb.TimeRangeBoundary.absolute(seconds=span[0]), end=rrb.TimeRangeBoundary.absolute(seconds=span[1])))
+
+
+def _view(p: Plot, span: tuple[float, float] | None = None) -> rrb.TimeSeriesView:
+    whole = whole_span(span)
     return rrb.TimeSeriesView(
         origin=p.origin, name=p.name, axis_x=whole,
         plot_legend=rrb.PlotLegend(corner="RightTop", visible=p.legend),

@@ -36,6 +36,10 @@ def run_report(run: RunSummary, scales: dict[str, tuple[float, str]] | None = No
     ]
     for key, value in stats.details.items():
         lines.append(f"- {key}: {value:.6g}" if isinstance(value, float) else f"- {key}: {value}")
+    if run.events:
+        lines += ["", "| event | occurrences | first (s) | mean interval (s) |", "|---|---|---|---|"]
+        lines += [f"| {name} | {log.count:,} | {log.t[0]:.12g} | " + (f"{float(log.intervals().mean()):.12g} |" if log.count > 1 else "– |")
+                  if log.count else f"| {name} | 0 | – | – |" for name, log in run.events.items()]
     lines += ["", "| invariant | max relative drift |", "|---|---|"]
     lines += [f"| {name} | {drift:.3e} |" for name, drift in run.max_drift().items()]
     if stats.failure:

@@ -41,6 +41,7 @@ class ChunkStream:
         self.thinned = Thinned()
         self.first_time = self.last_time = 0.0
         self.seconds = 0.0  # spent converting and sending (not compiling)
+        self.events: dict = {}  # the run's events (``rotlab.events``), set when it ends
         self.flushed_at = time.monotonic()
 
     def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> None:
@@ -84,7 +85,7 @@ class ChunkStream:
             self.progress.written(self.written, self.total)
 
     def summary(self) -> RunSummary:
-        return RunSummary(self.scene, self.stats, self.written, self.first_time, self.last_time, dict(self.drift))
+        return RunSummary(self.scene, self.stats, self.written, self.first_time, self.last_time, dict(self.drift), self.events)
 
     def finish(self) -> RunSummary:
         """Send what is pending, then the static part from the thinned run; returns the summary."""

@@ -50,6 +50,10 @@ INVARIANT: dict[str, Color] = {
     "L_symmetry": (240, 80, 200),
 }
 
+# events: the values recorded at each occurrence, one hue each (not red/green/blue: those mean components)
+EVENT_MARKERS: list[Color] = [(255, 160, 30), (175, 100, 245), (60, 200, 210), (240, 240, 80), (240, 80, 200), (235, 235, 235)]
+SECTION: Color = (90, 215, 230)  # the points of a Poincaré section
+
 MAX_3D_LABEL = 3
 
 _SAFE_EXTRA = set("·×−–—±≤≥≈°′″ₓᵧ₀₁₂₃₄₅₆₇₈₉⁰¹²³⁴⁵⁶⁷⁸⁹₋⁻ψθφωΛΔΩ…²³|")
@@ -70,6 +74,11 @@ def check_text(text: str) -> str:
         if not glyph_ok(ch):
             raise ValueError(f"{text!r}: the viewer's font has no glyph for {ch!r} (U+{ord(ch):04X})")
     return text
+
+
+def drawable(text: str) -> str:
+    """``text`` with every glyph the viewer's font lacks replaced by "?" (user-given names)."""
+    return "".join(ch if glyph_ok(ch) else "?" for ch in text)
 
 
 def label_3d(text: str) -> str:

@@ -31,10 +31,12 @@ from rotlab import invariants
 from rotlab.core.quaternion import rotate_to_space_array
 from rotlab.errors import InputError, RunFailure
 from rotlab.recording import labels, layout, visuals
+from rotlab.recording.events_view import event_views, log_events
 from rotlab.recording.geometry import MAX_PATH_POINTS, Geometry, scene_geometry
 from rotlab.recording.report import run_report
 from rotlab.recording.shapes import Ellipsoid, equivalent_ellipsoid
 from rotlab.recording.sink import RecordingSink
+from rotlab.events import EventLog
 from rotlab.trajectory import RunSummary, Trajectory, concatenate
 
 CHUNK_ROWS = 16384  # rows per send_columns call: enough that Rerun's fixed cost per call is spread thin
@@ -197,8 +199,9 @@ class RecordingWriter:
             if self.scales is None:
                 self._start(thinned)
             views = _views(thinned, self.scales)
-            self.sink.update_blueprint(run_blueprint(thinned, views))  # plot ranges from the whole run
+            self.sink.update_blueprint(run_blueprint(thinned, views, summary.events))  # plot ranges from the whole run
             _write_static(self.rec, thinned, views, summary)
+            log_events(self.rec, summary.events)
 
 
 class Thinned:
@@ -229,8 +232,9 @@ class Thinned:
         return np.concatenate(self.t), np.concatenate(self.state)
 
 
-def run_blueprint(traj: Trajectory, views: _Views):
-    """The layout for this run: its plots (``layout.plots``) and the trails' window."""
+def run_blueprint(traj: Trajectory, views: _Views, events: dict[str, EventLog] | None = None):
+    """The layout for this run: its plots (``layout.plots``), the trails' window and the views of
+    its ``events``."""
     all_series = views.series
     energy = all_series[layout.ENERGY][0]
     finite = np.abs(energy[np.isfinite(energy)])
@@ -239,8 +243,12 @@ def run_blueprint(traj: Trajectory, views: _Views):
     window = visuals.trail_window(traj.t, traj.omega) if len(traj.t) else None
     groups = layout.plots(all_series, unit, min_energy_span)
     active = layout.ENERGY_TAB if traj.scene.has_work else layout.MOTION  # loads at work: show them first
+    if events and any(len(log.record) >= 2 for log in events.values()):  # a Poincaré section: the reason for the run
+        active = layout.EVENTS_TAB
     time_ = traj.scene.scenario.time  # the whole span the run is asked for, known from its first chunk on
-    return layout.blueprint(groups, window, active, labels.camera(visuals.reach(traj, views)), span=(time_.start, time_.end))
+    span = (time_.start, time_.end)
+    return layout.blueprint(groups, window, active, labels.camera(visuals.reach(traj, views)), span=span,
+                            events=event_views(events, span) if events else None)
 
 
 def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:

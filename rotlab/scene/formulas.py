@@ -64,21 +64,23 @@ def source_of(program: Program) -> str:
     return text
 
 
-def module_source(loads: list[list[Program]]) -> str:
-    """The generated module for the programs of each load (three components each)."""
+def module_source(loads: list[list[Program]], checked: bool = True) -> str:
+    """The generated module for the programs of each load (three components each; events: any
+    number).  ``checked``: a value that is not finite is recorded as the load's fault
+    (``rotlab.core.faults``); events check their values themselves."""
     lines = [_HEADER.format(args=", ".join(f"x{i}" for i in range(op.N_INPUTS)))]
     for k, programs in enumerate(loads):
         lines.append(f"    if load == {k}:\n")
         for c, program in enumerate(programs):
-            value = f"checked_formula({source_of(program)}, {k}, {c}, {_STATE_INPUTS})"
+            value = f"checked_formula({source_of(program)}, {k}, {c}, {_STATE_INPUTS})" if checked else source_of(program)
             lines.append(f"        if component == {c}:\n            return {value}\n")
     lines.append("    return 0.0\n")
     return "".join(lines)
 
 
-def compiled(loads: list[list[Program]]) -> Any:
-    """The numba cfunc of ``module_source(loads)`` (imported from the cache, written if new)."""
-    text = module_source(loads)
+def compiled(loads: list[list[Program]], checked: bool = True) -> Any:
+    """The numba cfunc of ``module_source(loads, checked)`` (imported from the cache, written if new)."""
+    text = module_source(loads, checked)
     key = hashlib.sha256(text.encode()).hexdigest()[:20]
     if key not in _memo:
         name = f"rotlab_formulas_{key}"

@@ -7,7 +7,8 @@ terminal table and the comparison recording.
 
 Columns: case, one per swept parameter (vectors spread out: ``key[i]``), status, method, steps,
 seconds (this case's own wall time and its share of its chunk's report; empty when cases ran
-together in an ensemble kernel), the observables (``OBSERVABLES``), the max drift of each invariant
+together in an ensemble kernel), the observables (``OBSERVABLES``, then each event's count, first time and mean
+interval: ``rotlab.events.observables``), the max drift of each invariant
 (``max_drift_<name>``), message.  Only the cases that did not pass have a message; only the
 ``compared`` cases keep their decimated series (``CaseOutcome.t``) for the comparison recording.
 """
@@ -28,6 +29,7 @@ OBSERVABLES = ("flip_period_s", "max_nutation_deg")  # rotlab.observables
 STATUSES = ("pass", "fail", "error")
 DIGITS = {"seconds": 6, **{name: 9 for name in OBSERVABLES}}  # decimals the files keep (the rest: every digit)
 FIXED = ("status", "method", "steps", "seconds")
+COUNT_SUFFIX = "_count"  # an observable counting occurrences (``rotlab.events.observables``): an integer where defined
 PARTIAL_RESULTS = "results.partial.csv"  # the rows as cases finish (module docstring)
 TERMINAL_ROWS = 50  # a larger sweep's terminal table shows only the cases that did not pass
 
@@ -58,9 +60,10 @@ def _number(value: float, digits: int) -> float | str:
 class Results:
     """The results table of a sweep (module docstring); ``add`` each finished case."""
 
-    def __init__(self, params: list[str], invariants: list[str], csv_path: Path | None = None) -> None:
+    def __init__(self, params: list[str], invariants: list[str], csv_path: Path | None = None, observables: list[str] | None = None) -> None:
         self.params = list(params)
         self.invariants = list(invariants)
+        self.observables = [*OBSERVABLES, *(observables or [])]  # and the events' (``rotlab.events.observable_names``)
         self.methods: list[str] = []
         self.messages: dict[int, str] = {}  # row → message (cases that did not pass)
         self.compared: list[CaseOutcome] = []  # outcomes that carry series, in the order they finished
@@ -74,7 +77,7 @@ class Results:
     # -- columns ---------------------------------------------------------------------------------
     @property
     def header(self) -> list[str]:
-        return ["case", *self.params, *FIXED, *OBSERVABLES, *[f"max_drift_{n}" for n in self.invariants], "message"]
+        return ["case", *self.params, *FIXED, *self.observables, *[f"max_drift_{n}" for n in self.invariants], "message"]
 
     def __len__(self) -> int:
         return self._size
@@ -112,7 +115,8 @@ class Results:
             values = self.values(name, rows)
             if isinstance(values, list) or values.dtype.kind in "iu":
                 return values if isinstance(values, list) else values.tolist()
-            return ["" if not math.isfinite(v) else v for v in values.tolist()]
+            whole = int if name.endswith(COUNT_SUFFIX) else float  # counts (of events) as integers
+            return ["" if not math.isfinite(v) else whole(v) for v in values.tolist()]
 
         return [list(r) for r in zip(*(cells(name) for name in self.header))]
 
@@ -140,6 +144,7 @@ class Results:
         for o in outcomes:
             self.params += [n for n in parameter_names(o.values) if n not in self.params]
             self.invariants += [n for n in o.drift if n not in self.invariants]
+            self.observables += [n for n in o.observables if n not in self.observables]
         flat = [_flat(o.values) for o in outcomes]
         for name in self.params:
             self._store(name, np.array([_param(f.get(name)) for f in flat], dtype=float))
@@ -151,7 +156,7 @@ class Results:
         self._store("method", np.array([self.methods.index(o.method) for o in outcomes], dtype=np.int64))
         self._store("steps", np.array([o.steps for o in outcomes], dtype=np.int64))
         self._store("seconds", np.array([o.seconds for o in outcomes], dtype=float))
-        for name in OBSERVABLES:
+        for name in self.observables:
             self._store(name, np.array([o.observables.get(name, math.nan) for o in outcomes], dtype=float))
         for name in self.invariants:
             self._store(f"max_drift_{name}", np.array([o.drift.get(name, math.nan) for o in outcomes], dtype=float))

@@ -108,6 +108,7 @@ def outcomes_of(runs: list[tuple[Case, Trajectory, float]], compared: frozenset[
 
 
 def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]], compared: frozenset[int] | None) -> list[CaseOutcome]:
+    from rotlab.events import observables as event_observables
     from rotlab.observables import flip_axes, flips, observables
 
     stacked = stack_runs([traj for _, traj, _ in runs])
@@ -123,7 +124,7 @@ def _stacked_outcomes(runs: list[tuple[Case, Trajectory, float]], compared: froz
     for b, (case, traj, seconds) in enumerate(runs):
         outcome = case_outcome(case, traj.scene, traj.stats.method, traj.stats.steps, seconds, traj.stats.failure,
                                {name: float(values[b]) for name, values in drift.items()}, float(period[b]), int(reversals[b]),
-                               {name: float(values[b]) for name, values in found.items()})
+                               {**{name: float(values[b]) for name, values in found.items()}, **event_observables(traj.events)})
         if compared is None or case.index in compared:
             outcome.t, outcome.omega, outcome.energy_drift = t, stacked.omega[b, shown], energy[b, shown]
         outcomes.append(outcome)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rotlab.methods.base import ADAPTIVE, ProgressCallback, Settings, Solution
+from rotlab.methods.base import ADAPTIVE, LocalSolution, ProgressCallback, Settings, Solution
 from rotlab.methods.cost import Estimate, Work
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
 from rotlab.scene.scene import Scene
@@ -31,6 +31,20 @@ class DOP853:
 
     def auto_settings(self, estimate: Estimate, settings: Settings) -> Settings:
         return settings
+
+    def local_solution(self, scene: Scene, t: np.ndarray, settings: Settings) -> LocalSolution:
+        """Its steps from (t0, y) at the run's tolerances, ending at t1 (``Method.local_solution``)."""
+        from rotlab.core import dop853 as kernel
+
+        model, counters, out = scene.model, np.zeros(3, dtype=np.int64), np.empty((2, scene.state0.shape[0]))
+
+        def advance(y0: np.ndarray, t0: float, t1: float) -> np.ndarray:
+            out[1] = np.nan  # stays NaN when the steps fail
+            kernel.dop853_advance(y0.copy(), t0, 0.0, np.array([t0, t1]), out, 1, t1, settings.rtol, settings.atol, settings.max_steps,
+                                  model, counters)
+            return out[1].copy()
+
+        return advance
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         from rotlab.core import dop853 as kernel  # (its coefficients come from scipy.integrate: imported when it runs, not when auto weighs it)

@@ -14,7 +14,7 @@ import numpy as np
 
 from rotlab.core import quaternion as quat
 from rotlab.core.torques import F_FORCE, F_POINT
-from rotlab.methods.base import NO_STEPS, ProgressCallback, Settings, Solution
+from rotlab.methods.base import NO_STEPS, LocalSolution, ProgressCallback, Settings, Solution
 from rotlab.methods.cost import Estimate, Work, exact_estimate
 from rotlab.methods.stepping import evaluate_in_windows
 from rotlab.scene.scene import LAGRANGE, TORQUE_FREE, Scene
@@ -47,24 +47,32 @@ class Exact:
     def auto_settings(self, estimate: Estimate, settings: Settings) -> Settings:
         return settings
 
+    def local_solution(self, scene: Scene, t: np.ndarray, settings: Settings) -> LocalSolution:
+        """The closed form at t1 (it needs no state at t0: ``Method.local_solution``)."""
+        evaluate = _evaluator(scene, float(t[0]))
+        return lambda y0, t0, t1: evaluate(np.array([t1]))[0]
+
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
-        from rotlab.core.exact.torque_free import torque_free_solution  # (scipy.special: imported when it runs, not when auto weighs it)
-
-        t0 = float(t[0])
-
-        def evaluate(times: np.ndarray) -> np.ndarray:
-            if scene.kind == TORQUE_FREE:
-                q, omega = torque_free_solution(scene.moments, scene.omega0, scene.q0, t0, times)
-            else:
-                q, omega = _lagrange(scene, t0, times)
-            state = np.zeros((times.shape[0], 8))
-            state[:, 0:4] = q
-            state[:, 4:7] = omega
-            return state
-
-        solution = evaluate_in_windows(t, evaluate, progress)
+        solution = evaluate_in_windows(t, _evaluator(scene, float(t[0])), progress)
         solution.details = {"evaluated samples": int(solution.valid)}
         return solution
+
+
+def _evaluator(scene: Scene, t0: float):
+    """times → the (len(times), 8) states of the closed form from the scene's state at t0."""
+    from rotlab.core.exact.torque_free import torque_free_solution  # (scipy.special: imported when it runs, not when auto weighs it)
+
+    def evaluate(times: np.ndarray) -> np.ndarray:
+        if scene.kind == TORQUE_FREE:
+            q, omega = torque_free_solution(scene.moments, scene.omega0, scene.q0, t0, times)
+        else:
+            q, omega = _lagrange(scene, t0, times)
+        state = np.zeros((times.shape[0], 8))
+        state[:, 0:4] = q
+        state[:, 4:7] = omega
+        return state
+
+    return evaluate
 
 
 def _closed_form(scene: Scene) -> str:

@@ -11,7 +11,7 @@ import numpy as np
 from rotlab.core import taylor as kernel
 from rotlab.core.torques import F_FORCE, F_POINT, T_FRAME, TB_FRAME
 from rotlab.errors import InputError
-from rotlab.methods.base import ADAPTIVE, ProgressCallback, Settings, Solution
+from rotlab.methods.base import ADAPTIVE, LocalSolution, ProgressCallback, Settings, Solution
 from rotlab.methods.cost import Estimate, Work, taylor_estimate
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
 from rotlab.scene.load_kinds import SPACE
@@ -73,6 +73,20 @@ class Taylor:
     def constants(self, scene: Scene) -> tuple:
         """``kernel_constants`` of the scene, made once per body and loads."""
         return scene.rigid.kernel_constants(self.name, None, lambda: kernel_constants(scene))
+
+    def local_solution(self, scene: Scene, t: np.ndarray, settings: Settings) -> LocalSolution:
+        """Its series steps from (t0, y) at the run's order and tolerances, ending at t1 (``Method.local_solution``)."""
+        order = self.checked_order(settings)
+        c0, T, lever_force, flags = self.constants(scene)
+        model, counters, out = scene.model, np.zeros(1, dtype=np.int64), np.empty((2, scene.state0.shape[0]))
+
+        def advance(y0: np.ndarray, t0: float, t1: float) -> np.ndarray:
+            out[1] = np.nan  # stays NaN when the steps fail
+            kernel.taylor_advance(y0.copy(), t0, np.array([t0, t1]), out, 1, order, settings.rtol, settings.atol, settings.max_steps,
+                                  model, c0, T, lever_force, flags, counters)
+            return out[1].copy()
+
+        return advance
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
         order = self.checked_order(settings)

@@ -1,0 +1,233 @@
+"""Events: the times where a formula of the state crosses zero, located on the method's own
+local solution, and the values recorded there (a Poincaré section when ``record`` is given).
+
+An event's ``when`` is a formula g(t, ω, Λ, γ, L) of the expression-load grammar (user's body
+frame; γ the event's ``up`` in body components).  It is evaluated at every sample as the run
+makes it (``EventWatch``, a ``stepping.RowWatch``); where it changes sign between samples t_k
+and t_{k+1} in the event's direction
+
+    rising:  g_k < 0 ≤ g_{k+1}        falling:  g_k > 0 ≥ g_{k+1}        both: either,
+
+its root is found by Brent's method on
+
+    τ ↦ g(Φ(y_k, t_k, t_k + τ)),   τ ∈ (0, t_{k+1} − t_k],
+
+Φ the method's local solution (``Method.local_solution``: the run's own steps from the sample
+y_k, so that Φ(y_k, t_k, t_{k+1}) is the run's next sample; the closed form for ``exact``), to
+|δτ| ≤ ``TIME_RTOL`` · max(|t_k|, |t_{k+1}|) + 4 ε τ.  The event time then carries the method's own
+error only: δt ≈ δg / |ġ|, δg the error of g on the method's state.
+
+Detection is on the samples: two crossings inside one sample interval cancel and are not seen
+(raise ``time.sample_rate`` to resolve them).  An event at t0 itself is not an occurrence.
+A ``terminal`` event ends the run at its ``count``-th occurrence: the run keeps its samples
+before it and ends with the state at the event.  A value of ``when`` or of a ``record`` formula
+that is not finite stops the run, naming the event and the time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.optimize import brentq
+
+from rotlab.core.event_values import formula_values
+from rotlab.core.quaternion import from_matrix
+from rotlab.core.torques import EX_COLUMNS, EX_OFF, EX_UP
+from rotlab.methods.stepping import Stop
+from rotlab.scene import formulas
+
+if TYPE_CHECKING:
+    from rotlab.config.models import Event
+    from rotlab.methods.base import LocalSolution
+    from rotlab.scene.scene import Scene
+
+TIME_RTOL = 1e-14  # Brent's tolerance on the event time, relative to |t| (module docstring)
+
+
+@dataclass(frozen=True)
+class EventLog:
+    """The occurrences of one event: times ``t`` (s), the ``record`` formulas' values there
+    (``values[:, j]`` is ``record[j]``, user's frames as in the formula), and whether g rose
+    through 0 (``rising``)."""
+
+    name: str
+    record: tuple[str, ...]
+    t: np.ndarray  # (n,) s
+    values: np.ndarray  # (n, len(record))
+    rising: np.ndarray  # (n,) bool
+
+    @property
+    def count(self) -> int:
+        return int(self.t.shape[0])
+
+    def intervals(self) -> np.ndarray:
+        """Times between consecutive occurrences (s)."""
+        return np.diff(self.t)
+
+
+class CompiledEvents:
+    """A scenario's events compiled: each event's formulas (``when``, then ``record``) as one
+    generated function, evaluated on principal-frame states through ``formula_values``."""
+
+    def __init__(self, events: list[Event], scene: Scene) -> None:
+        self.specs = tuple(events)
+        programs = [[program for program, _ in event.programs()] for event in events]
+        self._function = formulas.compiled(programs, checked=False)  # kept alive: the kernels hold its address only
+        self.fn = self._function.address
+        self.rows = np.zeros((len(events), EX_COLUMNS))
+        for k, event in enumerate(events):
+            up = np.asarray(event.up, dtype=float)
+            self.rows[k, EX_UP:EX_UP + 3] = up / np.linalg.norm(up)
+            self.rows[k, EX_OFF] = np.inf
+        self.axes = np.ascontiguousarray(scene.axes, dtype=float)
+        self.axes_q = from_matrix(self.axes)
+        self.moments = np.asarray(scene.moments, dtype=float)
+
+    def values(self, k: int, component: int, t: np.ndarray, states: np.ndarray) -> np.ndarray:
+        """Formula ``component`` (0: ``when``, j + 1: ``record[j]``) of event ``k`` at each row of
+        ``states`` (principal frame) at times ``t``."""
+        out = np.empty(t.shape[0])
+        formula_values(self.fn, self.rows, k, component, np.ascontiguousarray(t, dtype=float),
+                       np.ascontiguousarray(states), self.axes, self.axes_q, self.moments, out)
+        return out
+
+
+def compile_events(scene: Scene) -> CompiledEvents | None:
+    """The scene's events compiled (None without events)."""
+    events = scene.scenario.events
+    return CompiledEvents(list(events), scene) if events else None
+
+
+@dataclass
+class _Found:
+    t: list[float] = field(default_factory=list)
+    values: list[np.ndarray] = field(default_factory=list)
+    rising: list[bool] = field(default_factory=list)
+
+
+class EventWatch:
+    """Finds the events in the rows of a run as they are made (module docstring); a terminal
+    event ends the run (``final``: its time and state, principal frame)."""
+
+    def __init__(self, compiled: CompiledEvents, local: LocalSolution) -> None:
+        self.compiled, self.local = compiled, local
+        self.found = [_Found() for _ in compiled.specs]
+        self.final: tuple[float, np.ndarray] | None = None
+        self.ended_by: str | None = None
+        self._t: float | None = None  # the last row seen
+        self._y: np.ndarray | None = None
+        self._g: np.ndarray | None = None  # its value of each event's ``when``
+
+    def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> Stop | None:
+        """``stepping.RowWatch``: the occurrences in (previous row, last of these rows]."""
+        g = np.array([self.compiled.values(k, 0, t, state) for k in range(len(self.compiled.specs))])
+        finite = np.isfinite(g).all(axis=0)
+        n = t.shape[0] if finite.all() else int(np.argmin(finite))
+        stop = self._scan(t, state, g, n)
+        if stop is not None or n == t.shape[0]:
+            return stop
+        k = int(np.argmin(np.isfinite(g[:, n])))
+        return Stop(n, self._not_finite(k, "when", float(t[n])))
+
+    def _scan(self, t: np.ndarray, state: np.ndarray, g: np.ndarray, n: int) -> Stop | None:
+        """Locate the occurrences in the first ``n`` rows (finite values), in time order, and
+        remember the last of them; a ``Stop`` keeps the rows before the interval it ends in."""
+        if n == 0:
+            return None
+        first = 0
+        if self._g is None:  # the run's first row: no interval ends there
+            self._t, self._y, self._g, first = float(t[0]), state[0].copy(), g[:, 0].copy(), 1
+        after = g[:, first:n]
+        before = np.concatenate([self._g[:, None], g[:, first:n - 1]], axis=1)
+        crossing = np.array([_crosses(spec.direction, before[k], after[k]) for k, spec in enumerate(self.compiled.specs)])
+        for column in np.flatnonzero(crossing.any(axis=0)):
+            r = first + int(column)
+            t0, y0 = (self._t, self._y) if r == first else (float(t[r - 1]), state[r - 1])
+            stop = self._interval(r, t0, y0, float(t[r]), np.flatnonzero(crossing[:, column]).tolist(), before[:, column])
+            if stop is not None:
+                return stop
+        self._t, self._y, self._g = float(t[n - 1]), state[n - 1].copy(), g[:, n - 1].copy()
+        return None
+
+    def _interval(self, row: int, t0: float, y0: np.ndarray, t1: float, events: list[int], g0: np.ndarray) -> Stop | None:
+        """The occurrences of ``events`` in (t0, t1] (ending at ``row`` of the rows being
+        scanned), in time order; a terminal one ends the run there, keeping the rows before ``row``."""
+        located = sorted(((*self._locate(k, t0, y0, t1, float(g0[k])), k) for k in events), key=lambda item: item[0])
+        for when, y, k in located:
+            spec, found = self.compiled.specs[k], self.found[k]
+            if y is None:
+                return Stop(row, f"event '{spec.name}': when = \"{spec.when}\" is not finite on the method's solution "
+                                 f"between t = {t0:.9g} s and t = {t1:.9g} s: write it so that it is defined on the whole motion")
+            values = np.array([self.compiled.values(k, 1 + j, np.array([when]), y[None, :])[0] for j in range(len(spec.record))])
+            if not np.all(np.isfinite(values)):
+                return Stop(row, self._not_finite(k, f"record[{int(np.argmin(np.isfinite(values)))}]", when))
+            found.t.append(when)
+            found.values.append(values)
+            found.rising.append(bool(g0[k] < 0.0))
+            if spec.terminal and len(found.t) == spec.count:
+                self.final = (when, y)
+                self.ended_by = f"event '{spec.name}' (occurrence {spec.count}) at t = {when:.12g} s"
+                return Stop(row)
+        return None
+
+    def _locate(self, k: int, t0: float, y0: np.ndarray, t1: float, g0: float) -> tuple[float, np.ndarray | None]:
+        """(time, state) of event ``k``'s root in (t0, t1] on the local solution from (t0, y0);
+        state None when the formula is not finite there."""
+        states: dict[float, np.ndarray] = {}
+
+        def g(tau: float) -> float:
+            if tau == 0.0:
+                return g0
+            y = self.local(y0, t0, t0 + tau)
+            states[tau] = y
+            return float(self.compiled.values(k, 0, np.array([t0 + tau]), y[None, :])[0])
+
+        span = t1 - t0
+        g1 = g(span)
+        if not np.isfinite(g1):
+            return t1, None
+        if g1 == 0.0 or np.sign(g1) == np.sign(g0):  # the local solution meets 0 at the sample itself (to its rounding)
+            return t1, states[span]
+        tau = brentq(g, 0.0, span, xtol=TIME_RTOL * max(abs(t0), abs(t1)) + 1e-300, rtol=4.0 * np.finfo(float).eps)
+        y = states[tau] if tau in states else self.local(y0, t0, t0 + tau)
+        return t0 + tau, y
+
+    def _not_finite(self, k: int, formula: str, t: float) -> str:
+        spec = self.compiled.specs[k]
+        text = spec.when if formula == "when" else spec.record[int(formula[7:-1])]
+        return (f"event '{spec.name}': {formula} = \"{text}\" is not finite at t = {t:.9g} s "
+                "(a log, sqrt or division outside its domain?): write it so that it is defined on the whole motion")
+
+    def logs(self) -> dict[str, EventLog]:
+        """Each event's occurrences so far, by name."""
+        out = {}
+        for spec, found in zip(self.compiled.specs, self.found):
+            width = len(spec.record)
+            values = np.array(found.values, dtype=float).reshape(len(found.t), width)
+            out[spec.name] = EventLog(spec.name, tuple(spec.record), np.array(found.t, dtype=float), values,
+                                      np.array(found.rising, dtype=bool))
+        return out
+
+
+def observable_names(events: list[Event]) -> list[str]:
+    """The columns a sweep reports for ``events`` (``observables``)."""
+    return [f"event_{e.name}_{what}" for e in events for what in ("count", "first_s", "interval_s")]
+
+
+def observables(logs: dict[str, EventLog]) -> dict[str, float]:
+    """A run's events as a sweep's observables: per event the number of occurrences, the first
+    time (s) and the mean interval between occurrences (s; NaN where undefined)."""
+    out: dict[str, float] = {}
+    for name, log in logs.items():
+        out[f"event_{name}_count"] = float(log.count)
+        out[f"event_{name}_first_s"] = float(log.t[0]) if log.count else float("nan")
+        out[f"event_{name}_interval_s"] = float(log.intervals().mean()) if log.count > 1 else float("nan")
+    return out
+
+
+def _crosses(direction: str, before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """Where g went from ``before`` to ``after`` through 0 in ``direction`` (module docstring)."""
+    rising, falling = (before < 0.0) & (after >= 0.0), (before > 0.0) & (after <= 0.0)
+    return rising if direction == "rising" else falling if direction == "falling" else rising | falling

@@ -1,0 +1,190 @@
+"""Events (``rotlab.events``) against closed forms: the intermediate-axis flip recurs at Jacobi's
+period 4K(m)/λ (complete elliptic integral, mpmath at 30 digits), and a heavy symmetric top turns
+back (θ̇ = 0) exactly at the roots of its cubic f(u) = (1 − u²)(2E' − 2mgl u)/A − (a − b u)²/A²
+(u = cos θ, a = L·up, b = C ω₃).  Event times are located on each method's own local solution,
+not on the samples: they hold with one sample every 0.2 s.  Also: directions, terminal events,
+formulas that are not finite, bad input, sweeps and the recording."""
+
+from __future__ import annotations
+
+import mpmath as mp
+import numpy as np
+import pytest
+
+import rotlab
+from rotlab.errors import InputError, RunFailure
+from rotlab.method_names import METHOD_NAMES
+from rotlab.recording.reader import read_series
+from tests.conftest import CONFIGS
+
+FLIP = {"name": "flip", "when": "omega[1]", "direction": "falling", "record": ["omega[0]", "omega[2]"]}
+TURN = {"name": "turn", "when": "gamma[0]*omega[1] - gamma[1]*omega[0]", "record": ["gamma[2]"]}  # d(cos θ)/dt = (γ × ω)₃
+
+
+def jacobi_period(moments, omega) -> float:
+    """The period of ω's motion on its polhode, 4 K(m) / λ (Landau & Lifshitz §37), at 30 digits."""
+    mp.mp.dps = 30
+    A, B, C = (mp.mpf(repr(x)) for x in moments)
+    w = [mp.mpf(repr(x)) for x in omega]
+    L2 = (A * w[0]) ** 2 + (B * w[1]) ** 2 + (C * w[2]) ** 2
+    T2 = A * w[0] ** 2 + B * w[1] ** 2 + C * w[2] ** 2
+    if L2 / T2 > B:
+        lam, m = mp.sqrt((C - B) * (L2 - T2 * A) / (A * B * C)), (B - A) * (T2 * C - L2) / ((C - B) * (L2 - T2 * A))
+    else:
+        lam, m = mp.sqrt((B - A) * (T2 * C - L2) / (A * B * C)), (C - B) * (L2 - T2 * A) / ((B - A) * (T2 * C - L2))
+    return float(4 * mp.ellipk(m) / lam)
+
+
+def flip_run(method: str, **overrides):
+    return rotlab.simulate(CONFIGS / "dzhanibekov.toml", method=method, overrides={"events": [FLIP], **overrides})
+
+
+@pytest.mark.parametrize("method", METHOD_NAMES)
+def test_the_flip_recurs_at_jacobis_period_in_every_method(method):
+    """Falling zeros of ω_y one period apart: exact to 1e-13 (measured 7e-16), the stepping
+    methods at rtol 1e-10 to 3e-9 (measured ≤ 1e-9: the error grows near the separatrix); the
+    first time agrees with the closed form's to 5e-11 (measured ≤ 7e-12)."""
+    period = jacobi_period((1e-4, 2e-4, 2.8e-4), (0.01, 10.0, 0.01))
+    flips = flip_run(method).events["flip"]
+    assert flips.count == 5
+    error = np.max(np.abs(flips.intervals() - period)) / period
+    assert error <= (1e-13 if method == "exact" else 3e-9), error
+    reference = flip_run("exact").events["flip"]
+    assert abs(flips.t[0] - reference.t[0]) <= 5e-11 * reference.t[0]
+    assert np.all(flips.values[:, 0] < 0.0) and not flips.rising.any()  # the record: ω_x at each falling zero
+
+
+@pytest.mark.parametrize("method", ["exact", "dop853", "taylor", "rk4", "dmv"])
+def test_event_times_come_from_the_local_solution_not_the_samples(method):
+    """Five samples a second (ω_y turns over in ~0.3 s): linear interpolation of the samples would
+    be off by ~1e-2 s; the local solution gives the same times as at 200 samples a second."""
+    dense, sparse = flip_run(method), flip_run(method, **{"time.sample_rate": 5})
+    assert sparse.events["flip"].count == dense.events["flip"].count
+    assert np.max(np.abs(sparse.events["flip"].t - dense.events["flip"].t)) <= 1e-8
+
+
+def lagrange_turning_points() -> np.ndarray:
+    """The roots u₁ < u₂ in [−1, 1] of the top's cubic f(u) (module docstring), configs/lagrange.toml."""
+    mp.mp.dps = 30
+    A, C, mgl = mp.mpf("1.1e-3"), mp.mpf("5e-4"), mp.mpf("0.5") * mp.mpf("9.81") * mp.mpf("0.04")
+    u0 = mp.cos(mp.radians(25))
+    w3 = mp.mpf(150)
+    b = C * w3  # L along the symmetry axis
+    a = b * u0  # L·up: at rest in precession, only the spin contributes
+    energy = mgl * u0  # E' = ½A(ω₁² + ω₂²) + mgl γ₃, ω₁ = ω₂ = 0
+    # f(u) A² = A (1 − u²)(2E' − 2 mgl u) − (a − b u)²: coefficients of u³ … u⁰
+    coefficients = [2 * A * mgl, -(2 * A * energy) - b * b, -(2 * A * mgl) + 2 * a * b, 2 * A * energy - a * a]
+    roots = sorted(float(mp.re(r)) for r in mp.polyroots(coefficients, maxsteps=200, extraprec=60) if abs(mp.im(r)) < 1e-20 and -1 <= mp.re(r) <= 1)
+    return np.array(roots)
+
+
+@pytest.mark.parametrize("method", ["exact", "taylor", "dop853", "splitting"])
+def test_a_heavy_top_turns_back_at_the_roots_of_its_cubic(method):
+    """cos θ at every θ̇ = 0 is a root of f(u): to 1e-9 (measured ≤ 2e-11 for taylor and dop853)."""
+    u1, u2 = lagrange_turning_points()
+    traj = rotlab.simulate(CONFIGS / "lagrange.toml", method=method, overrides={"events": [TURN], "time.end": 2.0})
+    turns = traj.events["turn"]
+    assert turns.count >= 20
+    cos_theta = turns.values[:, 0]
+    nearest = np.where(np.abs(cos_theta - u1) < np.abs(cos_theta - u2), u1, u2)
+    assert np.max(np.abs(cos_theta - nearest)) <= 1e-9
+    assert set(np.round(nearest, 12)) == {round(u1, 12), round(u2, 12)}  # both turning points are met
+    top = turns.rising  # γ₃ = cos θ rises through its minimum and falls through its maximum, in turn
+    assert np.all(top[1:] != top[:-1])
+
+
+def test_directions_split_the_occurrences_and_alternate():
+    both = flip_run("exact", events=[{**FLIP, "direction": "both"}]).events["flip"]
+    rising = flip_run("exact", events=[{**FLIP, "direction": "rising"}]).events["flip"]
+    falling = flip_run("exact").events["flip"]
+    assert both.count == rising.count + falling.count
+    assert np.array_equal(np.sort(np.r_[rising.t, falling.t]), both.t)
+    assert np.all(both.rising[1:] != both.rising[:-1])
+
+
+@pytest.mark.parametrize("method", ["rk4", "dop853", "exact"])
+def test_a_terminal_event_ends_the_run_at_its_count(method):
+    event = {"name": "stop", "when": "omega[1]", "terminal": True, "count": 3}
+    ref = flip_run(method, events=[{"name": "stop", "when": "omega[1]"}]).events["stop"]
+    traj = flip_run(method, events=[event])
+    stop = traj.events["stop"]
+    assert stop.count == 3 and np.array_equal(stop.t, ref.t[:3])
+    assert traj.t[-1] == stop.t[-1] and np.all(np.diff(traj.t) > 0)
+    assert abs(traj.omega[-1, 1]) <= 1e-9 * np.linalg.norm(traj.omega[-1])  # the last state is on the event
+    assert "event 'stop' (occurrence 3)" in traj.stats.details["ended by"]
+    assert traj.ok
+
+
+def test_events_leave_the_run_itself_unchanged():
+    """The watch only reads the samples: the states are bit for bit those of a run without events."""
+    for method in ("rk4", "dop853", "taylor"):
+        plain = rotlab.simulate(CONFIGS / "dzhanibekov.toml", method=method)
+        watched = flip_run(method)
+        assert np.array_equal(plain.quaternion, watched.quaternion) and np.array_equal(plain.omega, watched.omega)
+
+
+def test_a_formula_that_is_not_finite_stops_the_run_naming_the_event():
+    with pytest.raises(RunFailure, match=r"event 'bad': when = \"log\(omega\[1\]\)\" is not finite at t = 1\.67") as caught:
+        flip_run("rk4", events=[{"name": "bad", "when": "log(omega[1])"}])
+    kept = caught.value.trajectory
+    assert np.all(kept.omega[:, 1] > 0.0) and kept.t[-1] < 1.68  # the valid samples, up to the first NaN
+    with pytest.raises(RunFailure, match=r"event 'r': record\[0\] = \"sqrt\(omega\[0\]\)\" is not finite"):
+        flip_run("dop853", events=[{"name": "r", "when": "omega[1]", "record": ["sqrt(omega[0])"]}])
+
+
+@pytest.mark.parametrize(("event", "key", "words"), [
+    ({"name": "x", "when": "omega[3]"}, "events[0].when", "column 7"),
+    ({"name": "x", "when": "omga[1]"}, "events[0].when", "only omega[i]"),
+    ({"name": "x", "when": "omega[1]", "record": ["q[4]"]}, "events[0].record[0]", "index 0 … 3"),
+    ({"name": "x", "when": "omega[1]", "count": 2}, "events[0].count", "terminal = true"),
+    ({"name": "x y", "when": "omega[1]"}, "events[0].name", "plain identifier"),
+    ({"name": "x", "when": "omega[1]", "direction": "up"}, "events[0].direction", "rising"),
+])
+def test_bad_events_are_one_line_errors_naming_the_key(event, key, words):
+    with pytest.raises(InputError) as caught:
+        rotlab.load(CONFIGS / "dzhanibekov.toml", overrides={"events": [event]})
+    assert key in str(caught.value) and words in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_two_events_of_one_name_are_refused():
+    with pytest.raises(InputError, match=r"events\[1\]\.name: event name 'flip' is used twice"):
+        rotlab.load(CONFIGS / "dzhanibekov.toml", overrides={"events": [FLIP, FLIP]})
+
+
+def test_run_prints_the_events_and_records_them(cli, write, tmp_path):
+    text = (CONFIGS / "dzhanibekov.toml").read_text().replace("#:schema ./scenario.schema.json", "")
+    text += '\n[[events]]\nname = "flip"\nwhen = "omega[1]"\ndirection = "falling"\nrecord = ["omega[0]", "omega[2]"]\n'
+    write("flip.toml", text)
+    result = cli("run", "flip.toml", "-o", "flip.rrd")
+    assert result.exit_code == 0, result.output
+    expected = flip_run("exact").events["flip"]
+    assert f"event    flip: 5 occurrences, first at t = {expected.t[0]:.12g} s" in result.stdout
+    t, values = read_series(tmp_path / "flip.rrd", "/events/flip")
+    assert np.allclose(t, expected.t, atol=1e-9) and np.allclose(values, expected.values, rtol=1e-9)
+
+
+def test_a_terminal_event_ends_a_streamed_run_too(cli, write, tmp_path):
+    text = (CONFIGS / "dzhanibekov.toml").read_text().replace("#:schema ./scenario.schema.json", "")
+    write("stop.toml", text + '\n[[events]]\nname = "stop"\nwhen = "omega[1]"\nterminal = true\ncount = 2\n')
+    result = cli("run", "stop.toml", "-o", "stop.rrd")
+    assert result.exit_code == 0, result.output
+    t, _ = read_series(tmp_path / "stop.rrd", "/body/omega")
+    expected = flip_run("exact", events=[{"name": "stop", "when": "omega[1]"}]).events["stop"].t[1]
+    assert abs(t[-1] - expected) <= 1e-9 and "2 occurrences" in result.stdout
+
+
+def test_a_sweep_reports_each_cases_events(cli, write, tmp_path):
+    text = (CONFIGS / "sweep_flip.toml").read_text().replace("#:schema ./scenario.schema.json", "").replace("samples = 4 ", "samples = 1 ")
+    write("sweep.toml", text + '\n[[events]]\nname = "flip"\nwhen = "omega[1]"\ndirection = "falling"\n')
+    result = cli("sweep", "sweep.toml", "-o", "out", "-j", "1")
+    assert result.exit_code == 0, result.output
+    import csv
+
+    rows = list(csv.DictReader((tmp_path / "out" / "results.csv").open()))
+    assert len(rows) == 3
+    for row in rows:
+        overrides = {"initial.omega[0]": float(row["initial.omega[0]"]), "initial.omega[2]": float(row["initial.omega[2]"])}
+        flips = rotlab.simulate(tmp_path / "sweep.toml", overrides=overrides).events["flip"]
+        assert int(row["event_flip_count"]) == flips.count
+        assert float(row["event_flip_first_s"]) == pytest.approx(flips.t[0], rel=1e-12)
+        assert float(row["event_flip_interval_s"]) == pytest.approx(flips.intervals().mean(), rel=1e-12)
