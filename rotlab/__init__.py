@@ -4,16 +4,18 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["InputError", "Interrupted", "RunFailure", "Scenario", "Stability", "Trajectory", "__version__", "load", "parse_scenario", "save",
-           "simulate", "stability"]
+__all__ = ["InputError", "Interrupted", "Lyapunov", "RunFailure", "Scenario", "Stability", "Trajectory", "__version__", "load",
+           "lyapunov", "parse_scenario", "save", "simulate", "stability"]
 
 _LAZY = {
     "load": "rotlab.api",
     "simulate": "rotlab.api",
     "save": "rotlab.api",
     "parse_scenario": "rotlab.config.loader",
-    "stability": "rotlab.stability",
-    "Stability": "rotlab.stability",
+    "stability": "rotlab.linear_stability",
+    "lyapunov": "rotlab.lyapunov_exponent",
+    "Lyapunov": "rotlab.lyapunov_exponent",
+    "Stability": "rotlab.linear_stability",
     "Scenario": "rotlab.config.models",
     "Trajectory": "rotlab.trajectory",
     "InputError": "rotlab.errors",

@@ -211,13 +211,34 @@ def stability(
 ) -> None:
     """Linear stability of the initial state: eigenvalues and a verdict (a permanent rotation, a sleeping top)."""
     from rotlab.errors import InputError
-    from rotlab.stability import stability as analyse
+    from rotlab.linear_stability import stability as analyse
 
     try:
         result = analyse(config, overrides=_overrides(assignments))
     except InputError as exc:
         _fail(exc)
     typer.echo(str(result))
+
+
+@app.command()
+def lyapunov(
+    config: Annotated[Path, typer.Argument(help="Scenario TOML file.")],
+    duration: Annotated[Optional[float], typer.Option("--duration", help="Seconds to measure over (default: the scenario's span).")] = None,
+    check: Annotated[bool, typer.Option("--check", help="Also the cross-check: two whole runs a small distance apart, reset every 5 s.")] = False,
+    assignments: SetOption = None,
+) -> None:
+    """Maximal Lyapunov exponent (1/s) with its convergence: Benettin's renormalisation on the method's tangent map."""
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.lyapunov_exponent import divergence, lyapunov as measure
+
+    overrides = _overrides(assignments)
+    try:
+        result = measure(config, duration=duration, overrides=overrides)
+        typer.echo(str(result))
+        if check:
+            typer.echo(f"cross-check (two runs, reset every 5 s): {divergence(config, duration=duration, overrides=overrides):.6g} 1/s")
+    except (InputError, RunFailure) as exc:
+        _fail(exc)
 
 
 @app.command()
@@ -336,6 +357,7 @@ def sweep(
         from rotlab.sweep.recording import write_comparison
         from rotlab.sweep.report import terminal_table, write_results
         from rotlab.sweep.results import PARTIAL_RESULTS, Results, parameter_names
+        from rotlab.events import observable_names
 
         keep_heap()  # the ensemble path reports its cases here, and the results table is built here
         withhold_pandas()  # pyarrow would import pandas (time and memory) just to ask if our arrays are Series
@@ -345,7 +367,8 @@ def sweep(
             prepare_outdir(outdir)
             exit_after_stop()
             # the results table: results.partial.csv grows as cases finish; the final files, the recording and the terminal read it
-            results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / PARTIAL_RESULTS)
+            results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / PARTIAL_RESULTS,
+                              observable_names(list(sweep_plan.base.events)))
             run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm,
                             on_outcomes=results.add, compared=compared)
         except InputError as exc:

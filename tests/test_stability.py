@@ -1,4 +1,4 @@
-"""Linear stability (``rotlab.stability``) against the closed forms: the free body's permanent
+"""Linear stability (``rotlab.linear_stability``) against the closed forms: the free body's permanent
 rotations (the intermediate axis grows at Ω√((I₂−I₁)(I₃−I₂)/(I₁I₃)), the others oscillate at
 Ω√((I_k−I_i)(I_k−I_j)/(I_iI_j))), the sleeping top (unstable iff C²ω₃² < 4 A m g l, growing at
 √(4 A m g l − C²ω₃²)/(2A)), and a simulated perturbation growing at the predicted rate."""
