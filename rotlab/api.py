@@ -122,7 +122,7 @@ def _event_watch(scene: Scene, chosen: Method, t: np.ndarray, settings: Settings
     from rotlab.events import EventWatch, compile_events
 
     compiled = compile_events(scene)
-    return None if compiled is None else EventWatch(compiled, chosen.local_solution(scene, t, settings))
+    return None if compiled is None else EventWatch(compiled, lambda: chosen.local_solution(scene, t, settings))
 
 
 def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | None = None,

@@ -27,12 +27,12 @@ that is not finite stops the run, naming the event and the time.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from scipy.optimize import brentq
 
-from rotlab.core.event_values import formula_values
+from rotlab.core.event_values import FALLING, RISING, crossings, first_not_finite, formula_values
 from rotlab.core.quaternion import from_matrix
 from rotlab.core.torques import EX_COLUMNS, EX_OFF, EX_UP
 from rotlab.methods.stepping import Stop
@@ -44,6 +44,9 @@ if TYPE_CHECKING:
     from rotlab.scene.scene import Scene
 
 TIME_RTOL = 1e-14  # Brent's tolerance on the event time, relative to |t| (module docstring)
+DIRECTIONS = {"rising": RISING, "falling": FALLING, "both": RISING | FALLING}
+COMPILED_KEPT = 64  # compiled event sets kept (``compile_events``)
+_COMPILED: dict[tuple, CompiledEvents] = {}
 
 
 @dataclass(frozen=True)
@@ -95,9 +98,17 @@ class CompiledEvents:
 
 
 def compile_events(scene: Scene) -> CompiledEvents | None:
-    """The scene's events compiled (None without events)."""
+    """The scene's events compiled (None without events); kept for scenes of equal events and
+    body frame (a sweep's cases, repeated runs)."""
     events = scene.scenario.events
-    return CompiledEvents(list(events), scene) if events else None
+    if not events:
+        return None
+    key = (tuple(e.model_dump_json() for e in events), scene.axes.tobytes(), np.asarray(scene.moments, dtype=float).tobytes())
+    if key not in _COMPILED:
+        if len(_COMPILED) >= COMPILED_KEPT:
+            _COMPILED.pop(next(iter(_COMPILED)))
+        _COMPILED[key] = CompiledEvents(list(events), scene)
+    return _COMPILED[key]
 
 
 @dataclass
@@ -111,8 +122,11 @@ class EventWatch:
     """Finds the events in the rows of a run as they are made (module docstring); a terminal
     event ends the run (``final``: its time and state, principal frame)."""
 
-    def __init__(self, compiled: CompiledEvents, local: LocalSolution) -> None:
-        self.compiled, self.local = compiled, local
+    def __init__(self, compiled: CompiledEvents, local: Callable[[], LocalSolution]) -> None:
+        """``local`` makes the method's local solution, when the first occurrence is located (a
+        fixed-step method's may need its probe run again)."""
+        self.compiled, self._make_local = compiled, local
+        self._local: LocalSolution | None = None
         self.found = [_Found() for _ in compiled.specs]
         self.final: tuple[float, np.ndarray] | None = None
         self.ended_by: str | None = None
@@ -122,14 +136,15 @@ class EventWatch:
 
     def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> Stop | None:
         """``stepping.RowWatch``: the occurrences in (previous row, last of these rows]."""
-        g = np.array([self.compiled.values(k, 0, t, state) for k in range(len(self.compiled.specs))])
-        finite = np.isfinite(g).all(axis=0)
-        n = t.shape[0] if finite.all() else int(np.argmin(finite))
+        g = np.empty((len(self.compiled.specs), t.shape[0]))
+        for k in range(g.shape[0]):
+            g[k] = self.compiled.values(k, 0, t, state)
+        cut = [first_not_finite(row) for row in g]
+        n = min(cut)
         stop = self._scan(t, state, g, n)
         if stop is not None or n == t.shape[0]:
             return stop
-        k = int(np.argmin(np.isfinite(g[:, n])))
-        return Stop(n, self._not_finite(k, "when", float(t[n])))
+        return Stop(n, self._not_finite(cut.index(n), "when", float(t[n])))
 
     def _scan(self, t: np.ndarray, state: np.ndarray, g: np.ndarray, n: int) -> Stop | None:
         """Locate the occurrences in the first ``n`` rows (finite values), in time order, and
@@ -139,13 +154,14 @@ class EventWatch:
         first = 0
         if self._g is None:  # the run's first row: no interval ends there
             self._t, self._y, self._g, first = float(t[0]), state[0].copy(), g[:, 0].copy(), 1
-        after = g[:, first:n]
-        before = np.concatenate([self._g[:, None], g[:, first:n - 1]], axis=1)
-        crossing = np.array([_crosses(spec.direction, before[k], after[k]) for k, spec in enumerate(self.compiled.specs)])
-        for column in np.flatnonzero(crossing.any(axis=0)):
-            r = first + int(column)
-            t0, y0 = (self._t, self._y) if r == first else (float(t[r - 1]), state[r - 1])
-            stop = self._interval(r, t0, y0, float(t[r]), np.flatnonzero(crossing[:, column]).tolist(), before[:, column])
+        found: dict[int, list[int]] = {}  # row → the events crossing in the interval that ends there
+        rows = np.empty(max(n - first, 0), dtype=np.int64)
+        for k, spec in enumerate(self.compiled.specs):
+            for r in rows[:crossings(self._g[k], g[k, first:n], DIRECTIONS[spec.direction], rows)].tolist():
+                found.setdefault(first + r, []).append(k)
+        for r in sorted(found):
+            t0, y0, g0 = (self._t, self._y, self._g) if r == first else (float(t[r - 1]), state[r - 1], g[:, r - 1])
+            stop = self._interval(r, t0, y0, float(t[r]), found[r], g0)
             if stop is not None:
                 return stop
         self._t, self._y, self._g = float(t[n - 1]), state[n - 1].copy(), g[:, n - 1].copy()
@@ -194,6 +210,12 @@ class EventWatch:
         y = states[tau] if tau in states else self.local(y0, t0, t0 + tau)
         return t0 + tau, y
 
+    def local(self, y: np.ndarray, t0: float, t1: float) -> np.ndarray:
+        """The method's local solution (``Method.local_solution``), made on first use."""
+        if self._local is None:
+            self._local = self._make_local()
+        return self._local(y, t0, t1)
+
     def _not_finite(self, k: int, formula: str, t: float) -> str:
         spec = self.compiled.specs[k]
         text = spec.when if formula == "when" else spec.record[int(formula[7:-1])]
@@ -225,9 +247,3 @@ def observables(logs: dict[str, EventLog]) -> dict[str, float]:
         out[f"event_{name}_first_s"] = float(log.t[0]) if log.count else float("nan")
         out[f"event_{name}_interval_s"] = float(log.intervals().mean()) if log.count > 1 else float("nan")
     return out
-
-
-def _crosses(direction: str, before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """Where g went from ``before`` to ``after`` through 0 in ``direction`` (module docstring)."""
-    rising, falling = (before < 0.0) & (after >= 0.0), (before > 0.0) & (after <= 0.0)
-    return rising if direction == "rising" else falling if direction == "falling" else rising | falling

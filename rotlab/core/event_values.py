@@ -4,6 +4,8 @@ of a state array, from the inputs an expression load sees (``torques.expression_
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
 from rotlab.core.expressions import call_formulas
@@ -17,3 +19,31 @@ def formula_values(fn, rows, k, component, t, states, axes, axes_q, moments, out
     for i in range(t.shape[0]):
         x = expression_inputs(t[i], states[i], rows, k, axes, axes_q, moments)
         out[i] = call_formulas(fn, k, component, x)
+
+
+RISING, FALLING = 1, 2  # bits of an event's direction (both: 3)
+
+
+@njit(cache=True)
+def crossings(previous, g, direction, out):
+    """The rows r where g crossed 0 from the row before (``previous`` before row 0) in
+    ``direction`` (RISING: g_{r−1} < 0 ≤ g_r; FALLING: g_{r−1} > 0 ≥ g_r; both bits: either),
+    written to ``out``; returns their count.  ``g`` is finite (``first_not_finite`` cuts it)."""
+    count = 0
+    before = previous
+    for r in range(g.shape[0]):
+        after = g[r]
+        if ((direction & RISING) and before < 0.0 <= after) or ((direction & FALLING) and before > 0.0 >= after):
+            out[count] = r
+            count += 1
+        before = after
+    return count
+
+
+@njit(cache=True)
+def first_not_finite(g):
+    """The first row of ``g`` that is not finite (its length when all are)."""
+    for r in range(g.shape[0]):
+        if not math.isfinite(g[r]):
+            return r
+    return g.shape[0]

@@ -63,6 +63,7 @@ the separatrix, infinite period) is raised to 1e-150, which keeps every Carlson 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from decimal import Context, Decimal, localcontext
 
@@ -71,7 +72,7 @@ from scipy import special
 
 from rotlab.core.exact.doubledouble import from_decimal, two_prod, two_sum
 
-__all__ = ["lagrange_top_solution"]
+__all__ = ["lagrange_top_evaluator", "lagrange_top_solution"]
 
 _MC_MIN = 1e-150  # 1 − m floor: m = 1 (infinite period) as the limit of the periodic motion
 _E_MIN = Decimal("1e-50")  # nutation width Δ, closest approach 1 ∓ u to a vertical: 0 below this
@@ -721,22 +722,31 @@ def lagrange_top_solution(
     Returns (q (N, 4), omega (N, 3)).
     Closed form (Jacobi elliptic functions, Carlson integrals), vectorised over the samples.
     """
+    return lagrange_top_evaluator(A, C, mgl, omega0, q0, t0)(t)
+
+
+def lagrange_top_evaluator(A: float, C: float, mgl: float, omega0, q0, t0: float) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """``t ↦ lagrange_top_solution(A, C, mgl, omega0, q0, t0, t)``, the motion's constants (its
+    band, in extended precision) computed once: each later call costs only its samples."""
     if not (A > 0.0 and C > 0.0):
         raise ValueError(f"moments must be positive, got A={A}, C={C}")
-    t = np.asarray(t, dtype=float)
     omega0 = np.asarray(omega0, dtype=float).reshape(3)
     k = _rate_unit(float(A), float(mgl), omega0)
-    dt = tuple(part * k for part in two_sum(t.ravel(), np.full(t.size, -float(t0))))
     with localcontext(Context(prec=_DIGITS)):  # independent of the caller's decimal context
         st = _state(float(A), float(C), float(mgl) / k / k, omega0 / k, q0)
         x1, x2 = _band(st)
-        if x2 - x1 < _E_MIN:  # no nutation (to ~1e-25 in Λ)
-            q, omega = _evaluate_regular(st, dt)
-        else:
-            q, omega = _evaluate_nutating(st, _motion(st, x1, x2), dt)
-    omega *= k
-    omega[:, 2] = omega0[2]  # C ṙ = 0: exactly the input, also where ω₀/k is inexact (subnormal)
-    return q.reshape(t.shape + (4,)), omega.reshape(t.shape + (3,))
+        motion = None if x2 - x1 < _E_MIN else _motion(st, x1, x2)  # None: no nutation (to ~1e-25 in Λ)
+
+    def solution(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = np.asarray(t, dtype=float)
+        dt = tuple(part * k for part in two_sum(t.ravel(), np.full(t.size, -float(t0))))
+        with localcontext(Context(prec=_DIGITS)):
+            q, omega = _evaluate_regular(st, dt) if motion is None else _evaluate_nutating(st, motion, dt)
+        omega *= k
+        omega[:, 2] = omega0[2]  # C ṙ = 0: exactly the input, also where ω₀/k is inexact (subnormal)
+        return q.reshape(t.shape + (4,)), omega.reshape(t.shape + (3,))
+
+    return solution
 
 
 def _rate_unit(A: float, mgl: float, omega0: np.ndarray) -> float:

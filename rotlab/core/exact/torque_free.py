@@ -66,7 +66,7 @@ from scipy import special
 from rotlab.core.quaternion import conjugate_array, from_matrix, multiply_array, rotate_to_space_array
 from rotlab.core.exact.doubledouble import from_decimal, two_prod, two_sum
 
-__all__ = ["torque_free_solution"]
+__all__ = ["torque_free_evaluator", "torque_free_solution"]
 
 _DIGITS = 60
 _U0_DIGITS = 34  # u0 = F(am u0 | m) is a float: 34 digits round it correctly (``_u0_integral``)
@@ -392,16 +392,19 @@ def torque_free_solution(moments, omega0, q0, t0, t) -> tuple[np.ndarray, np.nda
     omega0: (3,) body angular velocity at t0; q0: (4,) unit quaternion (scalar first, body → space) at t0;
     t: (N,) sample times (any order, may precede t0).  Returns (q (N, 4), omega (N, 3)).
     O(1) per sample, no time stepping (see the module docstring for the formulas)."""
+    return torque_free_evaluator(moments, omega0, q0, t0)(t)
+
+
+def torque_free_evaluator(moments, omega0, q0, t0) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """``t ↦ torque_free_solution(moments, omega0, q0, t0, t)``, its constants (the elliptic
+    parameters, in extended precision) computed once: each later call costs only its samples."""
     inertia = np.asarray(moments, dtype=float).reshape(3)
     omega0 = np.asarray(omega0, dtype=float).reshape(3)
     q0 = np.asarray(q0, dtype=float).reshape(4)
-    t = np.asarray(t, dtype=float)
     if not (np.all(np.isfinite(inertia)) and np.all(inertia > 0.0)):
         raise ValueError("moments must be finite and positive")
     if not (np.all(np.isfinite(omega0)) and np.all(np.isfinite(q0)) and np.linalg.norm(q0) > 0.0):
         raise ValueError("omega0 and q0 must be finite, q0 non-zero")
-    if not np.all(np.isfinite(t)):
-        raise ValueError("sample times must be finite")
     q0 = q0 / np.linalg.norm(q0)
 
     distinct = np.unique(inertia)
@@ -415,9 +418,15 @@ def torque_free_solution(moments, omega0, q0, t0, t) -> tuple[np.ndarray, np.nda
     else:
         evaluate = _asymmetric(inertia, omega0, q0)
 
-    tau_hi, tau_lo = two_sum(t.ravel(), -float(t0))  # t − t0 exactly
-    q, omega = np.empty((t.size, 4)), np.empty((t.size, 3))
-    for start in range(0, t.size, _CHUNK):  # chunks keep the temporaries in cache
-        part = slice(start, start + _CHUNK)
-        q[part], omega[part] = evaluate((tau_hi[part], tau_lo[part]))
-    return q.reshape(t.shape + (4,)), omega.reshape(t.shape + (3,))
+    def solution(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = np.asarray(t, dtype=float)
+        if not np.all(np.isfinite(t)):
+            raise ValueError("sample times must be finite")
+        tau_hi, tau_lo = two_sum(t.ravel(), -float(t0))  # t − t0 exactly
+        q, omega = np.empty((t.size, 4)), np.empty((t.size, 3))
+        for start in range(0, t.size, _CHUNK):  # chunks keep the temporaries in cache
+            part = slice(start, start + _CHUNK)
+            q[part], omega[part] = evaluate((tau_hi[part], tau_lo[part]))
+        return q.reshape(t.shape + (4,)), omega.reshape(t.shape + (3,))
+
+    return solution

@@ -59,14 +59,14 @@ class Exact:
 
 
 def _evaluator(scene: Scene, t0: float):
-    """times → the (len(times), 8) states of the closed form from the scene's state at t0."""
-    from rotlab.core.exact.torque_free import torque_free_solution  # (scipy.special: imported when it runs, not when auto weighs it)
+    """times → the (len(times), 8) states of the closed form from the scene's state at t0 (its
+    constants computed once)."""
+    from rotlab.core.exact.torque_free import torque_free_evaluator  # (scipy.special: imported when it runs, not when auto weighs it)
+
+    solution = torque_free_evaluator(scene.moments, scene.omega0, scene.q0, t0) if scene.kind == TORQUE_FREE else _lagrange(scene, t0)
 
     def evaluate(times: np.ndarray) -> np.ndarray:
-        if scene.kind == TORQUE_FREE:
-            q, omega = torque_free_solution(scene.moments, scene.omega0, scene.q0, t0, times)
-        else:
-            q, omega = _lagrange(scene, t0, times)
+        q, omega = solution(times)
         state = np.zeros((times.shape[0], 8))
         state[:, 0:4] = q
         state[:, 4:7] = omega
@@ -84,8 +84,10 @@ def _closed_form(scene: Scene) -> str:
     return "axisymmetric" if distinct < 3 or np.count_nonzero(scene.omega0) <= 1 else "asymmetric"
 
 
-def _lagrange(scene: Scene, t0: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from rotlab.core.exact.lagrange import lagrange_top_solution
+def _lagrange(scene: Scene, t0: float):
+    """times → (Λ, ω) of the Lagrange top from the scene's state at t0, mapped to the canonical
+    frames and back (module docstring)."""
+    from rotlab.core.exact.lagrange import lagrange_top_evaluator
 
     (row,) = active_forces(scene.loads)
     arm, force = row[F_POINT:F_POINT + 3], row[F_FORCE:F_FORCE + 3]
@@ -97,9 +99,14 @@ def _lagrange(scene: Scene, t0: float, t: np.ndarray) -> tuple[np.ndarray, np.nd
     a_moment = 0.5 * (float(np.sum(scene.moments)) - c_moment)
     mgl = float(np.linalg.norm(force) * (arm @ axis))
     q_c0 = quat.multiply_array(quat.multiply_array(space_q, scene.q0), quat.conjugate_array(body_q))
-    q_c, omega_c = lagrange_top_solution(a_moment, c_moment, mgl, B @ scene.omega0, q_c0, t0, t)
-    q = quat.multiply_array(quat.multiply_array(quat.conjugate_array(space_q), q_c), body_q)
-    return q, omega_c @ B
+    canonical = lagrange_top_evaluator(a_moment, c_moment, mgl, B @ scene.omega0, q_c0, t0)
+
+    def solution(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        q_c, omega_c = canonical(t)
+        q = quat.multiply_array(quat.multiply_array(quat.conjugate_array(space_q), q_c), body_q)
+        return q, omega_c @ B
+
+    return solution
 
 
 METHOD = Exact()

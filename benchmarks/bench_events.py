@@ -1,0 +1,94 @@
+"""What an event costs a run, side by side in one process, for each method (``rotlab.events``):
+the same run without events; with an event that never occurs (``omega[1] + 1000``: only the
+check of every sample); with the flip (``omega[1]`` falling: the check and the location of each
+occurrence by Brent's method on the method's own local solution); with a Poincaré section (the
+flip recording two values).
+
+    python benchmarks/bench_events.py [--repeats 7] [--end 200]
+
+Problem: configs/dzhanibekov.toml over ``--end`` seconds at 200 samples/s (40,001 samples and 33
+falling flips at 200 s).  Columns: the plain run (median of ``--repeats`` runs, interleaved with
+the others), its time per step (per sample for ``exact``), samples per step, the check's cost
+(never − plain) per sample and as a fraction of the plain run, the location's cost per occurrence
+((flip − never) / occurrences), and the section's whole overhead.  The target (issue 35): an event
+on a formula ≤ 15 % of a plain step.
+
+Then what a Lyapunov exponent costs (``rotlab.lyapunov``: two local solutions of the method per
+sample interval) against the plain run of the same scenario, configs/chaotic_top.toml (600 s, 50
+samples/s) and configs/lagrange.toml (10 s, 200 samples/s), medians of ``--repeats``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+import rotlab
+from rotlab.api import run_scene
+from rotlab.scene.scene import build_scene
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+NEVER = {"name": "never", "when": "omega[1] + 1000"}
+FLIP = {"name": "flip", "when": "omega[1]", "direction": "falling"}
+SECTION = {"name": "section", "when": "omega[1]", "direction": "falling", "record": ["omega[0]", "omega[2]"]}
+METHODS = {"rk4": {"solver.step": 1e-3}, "splitting": {"solver.step": 1e-3}, "dmv": {}, "rkmk4": {"solver.step": 1e-3},
+           "dop853": {}, "taylor": {}, "exact": {}}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--end", type=float, default=200.0)
+    args = parser.parse_args()
+    print(f"dzhanibekov.toml, {args.end:g} s at 200 samples/s; median of {args.repeats} runs each, interleaved\n")
+    print("| method | steps | plain run (ms) | per step (ns) | samples per step | check per sample (ns) | check / plain run "
+          "| location per occurrence (µs) | + section, whole |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for method, settings in METHODS.items():
+        scenes = {}
+        for label, events in (("plain", []), ("never", [NEVER]), ("flip", [FLIP]), ("section", [SECTION])):
+            scenario = rotlab.load(CONFIGS / "dzhanibekov.toml", method=method,
+                                   overrides={**settings, "time.end": args.end, "events": events})
+            scenes[label] = build_scene(scenario)
+            run_scene(scenes[label])  # compile / load the kernels and the formulas
+        seconds: dict[str, list[float]] = {label: [] for label in scenes}
+        for _ in range(args.repeats):
+            for label, scene in scenes.items():
+                started = time.perf_counter()
+                traj = run_scene(scene)
+                seconds[label].append(time.perf_counter() - started)
+                if label == "flip":
+                    count = traj.events["flip"].count
+                if label == "plain":
+                    steps, samples = traj.stats.steps or traj.t.shape[0], traj.t.shape[0]
+        plain, never, flip, section = (float(np.median(seconds[k])) for k in ("plain", "never", "flip", "section"))
+        print(f"| {method} | {steps:,} | {plain * 1e3:.2f} | {plain / steps * 1e9:.0f} | {samples / steps:.2g} | {(never - plain) / samples * 1e9:.0f} "
+              f"| {100 * (never - plain) / plain:+.1f} % | {(flip - never) / count * 1e6:.0f} | {100 * (section - plain) / plain:+.1f} % |")
+    lyapunov_cost(max(3, args.repeats // 2))
+
+
+def lyapunov_cost(repeats: int) -> None:
+    print("\n| scenario | method | samples | plain run (ms) | lyapunov (ms) | ratio | per sample interval (µs) |")
+    print("|---|---|---|---|---|---|---|")
+    for name in ("chaotic_top", "lagrange"):
+        scenario = rotlab.load(CONFIGS / f"{name}.toml")
+        scene = build_scene(scenario)
+        traj = run_scene(scene)
+        rotlab.lyapunov(scenario, duration=1.0)
+        plain, measured = [], []
+        for _ in range(repeats):
+            started = time.perf_counter()
+            run_scene(scene)
+            plain.append(time.perf_counter() - started)
+            started = time.perf_counter()
+            rotlab.lyapunov(scenario)
+            measured.append(time.perf_counter() - started)
+        a, b, n = float(np.median(plain)), float(np.median(measured)), traj.t.shape[0]
+        print(f"| {name} | {traj.stats.method} | {n:,} | {a * 1e3:.1f} | {b * 1e3:.1f} | {b / a:.1f} | {b / (n - 1) * 1e6:.1f} |")
+
+
+if __name__ == "__main__":
+    main()
