@@ -23,6 +23,7 @@ from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK
 from rotlab.ensemble.observe import observe_rows
+from rotlab.methods.stepping import WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
 from rotlab.scene.loads import Model
 
 WINDOW = 4096  # samples per fixed-step kernel call within a case
@@ -196,14 +197,17 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, ca
     n = times.shape[0]
     for b in prange(y0.shape[0]):
         y, rows, mine, counted = _start_whole(y0, b, n, model, 3)
-        code, i, t, h, attempts = OK, 1, times[0], 0.0, 0
-        while i < n and attempts < max_steps:  # in calls of ``chunk`` attempts, as ``stepping.run_chunks`` makes them
+        code, i, t, h, attempts, lo, hi = OK, 1, times[0], 0.0, 0, 0, min(n, RUN_WINDOW + 1)
+        while i < n and attempts < max_steps:  # in calls of ``chunk`` attempts on ``stepping.run_chunks``'s windows
             before = counted[0] + counted[1]
-            code, i, t, h = dop853_advance(y, t, h, times, rows, i, times[n - 1], rtol, atol, min(chunk, max_steps - attempts),
-                                           mine, counted)
+            code, j, t, h = dop853_advance(y, t, h, times[lo:hi], rows[lo:hi], i - lo, times[hi - 1], rtol, atol,
+                                           min(chunk, max_steps - attempts), mine, counted)
+            i = lo + j
             attempts += counted[0] + counted[1] - before
             if code != OK:
                 break
+            if i == hi < n:
+                lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
         for m in range(3):
             counters[b, m] = counted[m]
         _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
@@ -218,12 +222,15 @@ def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, c0, T
     n = times.shape[0]
     for b in prange(y0.shape[0]):
         y, rows, mine, counted = _start_whole(y0, b, n, model, 1)
-        code, i, t = OK, 1, times[0]
-        while i < n and counted[0] < max_steps:  # in calls of ``chunk`` steps, as ``stepping.run_chunks`` makes them
-            code, i, t = taylor_advance(y, t, times, rows, i, order, rtol, atol, min(chunk, max_steps - counted[0]), mine, c0, T,
-                                        lever_force, flags, counted)
+        code, i, t, lo, hi = OK, 1, times[0], 0, min(n, RUN_WINDOW + 1)
+        while i < n and counted[0] < max_steps:  # in calls of ``chunk`` steps on ``stepping.run_chunks``'s windows
+            code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, min(chunk, max_steps - counted[0]),
+                                        mine, c0, T, lever_force, flags, counted)
+            i = lo + j
             if code != OK:
                 break
+            if i == hi < n:
+                lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
         counters[b, 0] = counted[0]
         _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                       kept_count)

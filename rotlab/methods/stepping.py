@@ -11,7 +11,9 @@ Two ways to run, chosen by the caller of ``Method.solve`` through ``streaming(..
   window is reused, so memory does not grow with the run's length.  The ``Solution`` then holds
   only the last window (``state`` rows ``[valid − len(state), valid)``).
 
-A kernel call sees a window of the sample times ``times = t[lo − 1 : hi]`` and of the output
+Both call the kernel on the same windows of at most ``WINDOW`` samples, and an adaptive method
+ends a step at its window's last sample: a streamed run and a whole one give the same states, bit
+for bit.  A kernel call sees a window of the sample times ``times = t[lo − 1 : hi]`` and of the output
 ``out`` (row 0 is the sample before the window: the kernels continue from the state ``y`` they
 carry, so the window's first row is never written) and the local index i ≥ 1 of its next sample.
 """
@@ -151,7 +153,10 @@ def run_chunks(
     streamed = control.consumer is not None
     out = np.empty((min(n, WINDOW + 1) if streamed else n, STATE_SIZE))
     out[0] = y
-    base, hi = 0, min(n, WINDOW + 1) if streamed else n  # the window: global samples [base, hi), out row 0 = base
+    # the window: global samples [base, hi); streamed, out row 0 is sample base (the array is reused),
+    # whole, out row k is sample k.  Both runs see the same windows: an adaptive kernel ends its
+    # steps at a window's last sample, so a streamed run and a whole one take the same steps
+    base, hi = 0, min(n, WINDOW + 1)
     i, steps, failure, interrupted, ended = 1, 0, None, False, False
     now = integrator_time or (lambda: float(t[i - 1]))
 
@@ -171,7 +176,7 @@ def run_chunks(
             if control.deadline is not None and time.monotonic() > control.deadline:
                 failure = timeout_message(control, now())
                 break
-            times, window = t[base:hi], out[: hi - base]
+            times, window = t[base:hi], out[: hi - base] if streamed else out[base:hi]
             start = now()
             status, local, taken = advance(times, window, i - base, budget)
             steps += taken
@@ -194,8 +199,9 @@ def run_chunks(
                 progress(i, n)
             if failure is not None or ended:
                 break
-            if streamed and i == hi < n:  # window full: its last row starts the next one
-                out[0] = window[hi - base - 1]
+            if i == hi < n:  # window full: its last row starts the next one
+                if streamed:
+                    out[0] = window[hi - base - 1]
                 base, hi = hi - 1, min(n, hi + WINDOW)
     except KeyboardInterrupt:
         failure, interrupted = interrupts.stopped_at(t[i - 1]), True
