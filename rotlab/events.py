@@ -33,6 +33,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from rotlab.core.event_values import FALLING, RISING, crossings, first_not_finite, formula_values
+from rotlab.core import quaternion as quat
 from rotlab.core.quaternion import from_matrix
 from rotlab.core.torques import EX_COLUMNS, EX_OFF, EX_UP
 from rotlab.methods.stepping import Stop
@@ -52,14 +53,17 @@ _COMPILED: dict[tuple, CompiledEvents] = {}
 @dataclass(frozen=True)
 class EventLog:
     """The occurrences of one event: times ``t`` (s), the ``record`` formulas' values there
-    (``values[:, j]`` is ``record[j]``, user's frames as in the formula), and whether g rose
-    through 0 (``rising``)."""
+    (``values[:, j]`` is ``record[j]``, user's frames as in the formula), whether g rose
+    through 0 (``rising``), and the state there (``quaternion`` body → space, scalar first, and
+    ``omega``, rad/s, user's body frame)."""
 
     name: str
     record: tuple[str, ...]
     t: np.ndarray  # (n,) s
     values: np.ndarray  # (n, len(record))
     rising: np.ndarray  # (n,) bool
+    quaternion: np.ndarray  # (n, 4)
+    omega: np.ndarray  # (n, 3) rad/s, body
 
     @property
     def count(self) -> int:
@@ -116,6 +120,7 @@ class _Found:
     t: list[float] = field(default_factory=list)
     values: list[np.ndarray] = field(default_factory=list)
     rising: list[bool] = field(default_factory=list)
+    states: list[np.ndarray] = field(default_factory=list)  # principal frame
 
 
 class EventWatch:
@@ -182,6 +187,7 @@ class EventWatch:
             found.t.append(when)
             found.values.append(values)
             found.rising.append(bool(g0[k] < 0.0))
+            found.states.append(y[:7].copy())
             if spec.terminal and len(found.t) == spec.count:
                 self.final = (when, y)
                 self.ended_by = f"event '{spec.name}' (occurrence {spec.count}) at t = {when:.12g} s"
@@ -228,8 +234,10 @@ class EventWatch:
         for spec, found in zip(self.compiled.specs, self.found):
             width = len(spec.record)
             values = np.array(found.values, dtype=float).reshape(len(found.t), width)
+            states = np.array(found.states, dtype=float).reshape(len(found.t), 7)
+            quaternion = quat.multiply_array(states[:, 0:4], quat.conjugate_array(self.compiled.axes_q))  # Λ_U = Λ_P ∘ Λ̃_axes
             out[spec.name] = EventLog(spec.name, tuple(spec.record), np.array(found.t, dtype=float), values,
-                                      np.array(found.rising, dtype=bool))
+                                      np.array(found.rising, dtype=bool), quaternion, states[:, 4:7] @ self.compiled.axes.T)
         return out
 
 

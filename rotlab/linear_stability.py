@@ -36,8 +36,8 @@ import numpy as np
 
 from rotlab.config.models import Scenario
 from rotlab.core import quaternion as quat
-from rotlab.core.torques import F_FORCE, F_POINT
 from rotlab.errors import InputError
+from rotlab.phase_portrait import field_arm, top_reduction
 
 NEUTRAL = 1e-6  # |Re λ| below this × the rate scale counts as zero
 EQUILIBRIUM = 1e-9  # |dx/dt| below this × its scale counts as at rest (in the body frame)
@@ -99,8 +99,7 @@ def stability(scenario: Scenario | str | Path, *, overrides: Mapping[str, Any] |
         up = np.asarray(scene.field_direction, dtype=float)
         unit_q = state0[0:4] / np.linalg.norm(state0[0:4])
         gamma = quat.rotate_to_body_array(unit_q, up)
-        forces = scene.loads.forces
-        c = np.sum((forces[:, F_FORCE:F_FORCE + 3] @ up)[:, None] * forces[:, F_POINT:F_POINT + 3], axis=0)
+        c = field_arm(scene)
         rate = float(max(np.linalg.norm(omega), np.sqrt(np.linalg.norm(c) / np.min(moments))))
         if scene.symmetry_axis is not None and not _at_rest(moments, omega, gamma, c, rate):
             return steady_precession(moments, np.asarray(scene.symmetry_axis, dtype=float), omega, gamma, c, rate)
@@ -143,6 +142,7 @@ def steady_precession(moments: np.ndarray, axis: np.ndarray, omega: np.ndarray, 
                       rate: float) -> Stability:
     """A Lagrange top (symmetry axis e, A about the axes across it, C along it) in steady
     precession: ω = ψ̇ γ + φ̇ e (θ̇ = 0) at a tilt θ₀ where the effective potential
+    (``phase_portrait.TopReduction.potential``)
 
         U(θ) = (p_ψ − C ω₃ cos θ)² / (2 A sin² θ) + k cos θ,   p_ψ = L·γ, ω₃ = ω·e, k = −c·e (= m g l)
 
@@ -153,14 +153,11 @@ def steady_precession(moments: np.ndarray, axis: np.ndarray, omega: np.ndarray, 
     theta0 = float(np.arccos(cos0))
     along = np.linalg.lstsq(np.column_stack([gamma, axis]), omega, rcond=None)[0]
     nodal = float(np.linalg.norm(omega - along[0] * gamma - along[1] * axis))
-    a_moment, c_moment = float(np.max(moments * (1.0 - np.abs(axis)))), float(moments @ np.abs(axis))  # e is a principal axis
-    spin, p_psi, k = float(omega @ axis), float((moments * omega) @ gamma), float(-(c @ axis))
-
-    def potential(theta):
-        return (p_psi - c_moment * spin * np.cos(theta)) ** 2 / (2.0 * a_moment * np.sin(theta) ** 2) + k * np.cos(theta)
+    top = top_reduction(moments, axis, omega, gamma, c)  # e is a principal axis
+    a_moment, spin, p_psi, k = top.a_moment, top.spin, top.p_psi, top.k
 
     def slope(theta: float) -> float:
-        return float(np.imag(potential(theta + 1e-20j)) / 1e-20)
+        return float(np.imag(top.potential(theta + 1e-20j)) / 1e-20)
 
     scale = abs(k) + a_moment * rate**2  # J: the potential's and the kinetic energy's size
     if np.sin(theta0) < 1e-9 or nodal > EQUILIBRIUM * rate or abs(slope(theta0)) > EQUILIBRIUM * scale:

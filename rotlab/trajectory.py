@@ -93,6 +93,13 @@ class Trajectory:
         return self._quantities[2]
 
     @cached_property
+    def gamma(self) -> np.ndarray | None:  # (N, 3) the field's unit "up" (−F̂), body; None without one field direction
+        up = self.scene.field_direction
+        if up is None:
+            return None
+        return self._to_user(quat.rotate_to_body_array(self._quantities[0], np.asarray(up, dtype=float)))
+
+    @cached_property
     def kinetic(self) -> np.ndarray:  # (N,) J
         return self._quantities[3]
 

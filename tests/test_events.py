@@ -52,6 +52,9 @@ def test_the_flip_recurs_at_jacobis_period_in_every_method(method):
     reference = flip_run("exact").events["flip"]
     assert abs(flips.t[0] - reference.t[0]) <= 5e-11 * reference.t[0]
     assert np.all(flips.values[:, 0] < 0.0) and not flips.rising.any()  # the record: ω_x at each falling zero
+    assert np.array_equal(flips.omega[:, [0, 2]], flips.values)  # the state there (user's body frame), the record's source
+    assert np.all(np.abs(flips.omega[:, 1]) <= 1e-9 * np.linalg.norm(flips.omega, axis=1))
+    assert np.allclose(np.linalg.norm(flips.quaternion, axis=1), 1.0, atol=1e-9)
 
 
 @pytest.mark.parametrize("method", ["exact", "dop853", "taylor", "rk4", "dmv"])

@@ -9,28 +9,36 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from rotlab.core import quaternion as quat
 from rotlab.events import EventLog
 from rotlab.recording import layout, style
 
 MARKER_SIZE = 4.0
 MARGIN = 0.08  # around a section's points, of their span
+MARKER_RADIUS_3D = rr.components.Radius.ui_points(4.0)
 SECTION_RADIUS = rr.components.Radius.ui_points(2.5)
 
 
-def log_events(rec: rr.RecordingStream, events: dict[str, EventLog]) -> None:
-    """Write every event's markers and, where it has one, its section."""
-    for name, log in events.items():
+def log_events(rec: rr.RecordingStream, events: dict[str, EventLog], axis: np.ndarray, reach: float) -> None:
+    """Write every event's markers and, where it has one, its section; in the 3D view, where
+    the reference axis's tip (``axis``, user's body frame, at distance ``reach``) was at each
+    occurrence (``layout.EVENTS_3D``)."""
+    for k, (name, log) in enumerate(events.items()):
         if not log.count:
             continue
         path = f"{layout.EVENTS}/{name}"
         values, names = _marked(log)
-        colors = [style.EVENT_MARKERS[k % len(style.EVENT_MARKERS)] for k in range(len(names))]
+        colors = [style.EVENT_MARKERS[(k + j) % len(style.EVENT_MARKERS)] for j in range(len(names))]  # the first: the event's own
         rec.log(path, rr.SeriesPoints(names=[style.drawable(n) for n in names], marker_sizes=[MARKER_SIZE] * len(names), colors=colors),
                 static=True)
         ns = np.round(log.t * 1e9).astype(np.int64).astype("timedelta64[ns]")  # as the run's timeline (writer._nanoseconds)
         rec.send_columns(path, [rr.TimeColumn(layout.TIMELINE, duration=ns)], rr.Scalars.columns(scalars=values))
         if len(log.record) >= 2:
             rec.log(f"{layout.SECTIONS}/{name}", rr.Points2D(log.values[:, :2], radii=SECTION_RADIUS, colors=style.SECTION), static=True)
+        unit_q = log.quaternion / np.linalg.norm(log.quaternion, axis=1, keepdims=True)
+        tips = quat.rotate_to_space_array(unit_q, np.broadcast_to(reach * axis, (log.count, 3)))
+        rec.log(f"{layout.EVENTS_3D}/{name}", rr.Points3D(tips, radii=MARKER_RADIUS_3D, colors=style.EVENT_MARKERS[k % len(style.EVENT_MARKERS)]),
+                static=True)
 
 
 def event_views(events: dict[str, EventLog], span: tuple[float, float] | None) -> list[rrb.View]:
@@ -46,9 +54,10 @@ def event_views(events: dict[str, EventLog], span: tuple[float, float] | None) -
 
 
 def _bounds(points: np.ndarray) -> rrb.VisualBounds2D:
-    """The section's points with a margin of ``MARGIN`` of their span on every side."""
+    """The section's points with a margin of ``MARGIN`` of their span on every side (of a tenth
+    of their magnitude where they do not spread: a periodic motion returns to one point)."""
     low, high = points.min(axis=0), points.max(axis=0)
-    pad = MARGIN * np.maximum(high - low, 1e-12 * np.maximum(np.abs(low), 1.0))
+    pad = MARGIN * np.maximum(high - low, np.maximum(0.1 * np.maximum(np.abs(low), np.abs(high)), 1e-12))
     return rrb.VisualBounds2D(x_range=[low[0] - pad[0], high[0] + pad[0]], y_range=[low[1] - pad[1], high[1] + pad[1]])
 
 

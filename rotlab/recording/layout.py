@@ -46,7 +46,16 @@ LOAD_TORQUE_BODY = "/loads/torque_body"  # [M1, M2, M3] of the non-conservative 
 LOAD_TORQUE_SPACE = "/loads/torque_space"  # the same, space frame
 LOAD_POWER = "/loads/power"  # P = M·ω of the non-conservative loads, W
 EVENTS = "/events"  # /events/<name>: at each occurrence, the ``record`` values (else the occurrence number), markers
+EVENTS_3D = "/world/events"  # /world/events/<name>: the reference-axis tip at each occurrence (static, space frame)
 SECTIONS = "/sections"  # /sections/<name>: Poincaré section, (record[0], record[1]) of every occurrence (static)
+PORTRAIT = "/phase"  # torque-free: the phase portrait, L in the body frame (user's axes), kg·m²/s
+PORTRAIT_POLHODES = "/phase/polhodes"  # static: polhodes of several energies on the sphere |L| = L₀
+PORTRAIT_SEPARATRICES = "/phase/separatrices"  # static: through the intermediate axis
+PORTRAIT_EQUILIBRIA = "/phase/equilibria"  # static: ±L₀ along each principal axis, labelled min / mid / max moment
+PORTRAIT_PATH = "/phase/path"  # static: the run's L (body frame)
+PORTRAIT_NOW = "/phase/now"  # L at each visual sample
+TOP_POTENTIAL = "/top/potential"  # Lagrange top: [U(θ(t)), E′] J, the effective potential along the motion and its level
+EULER_THETA_TURNING = "/euler/theta/turning"  # Lagrange top: the turning points [θ₁, θ₂] from the cubic, drawn on the θ plot
 TRAILS = (AXIS_TIP, HERPOLHODE_TRAIL, POLHODE_TRAIL)  # drawn over the trailing window
 
 LEGEND_HEADROOM = 0.45  # a plot with a legend gets this fraction of its data span above the data
@@ -95,6 +104,8 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
         motion += [Plot(f"θ nutation ({angle_unit})", EULER_THETA, False, rng(EULER_THETA, False)),
                    Plot(f"ψ precession, one turn ({angle_unit})", EULER_PSI, False, rng(EULER_PSI, False)),
                    Plot(f"dφ/dt spin rate ({angle_unit}/s)", EULER_SPIN_RATE, False, rng(EULER_SPIN_RATE, False))]
+    if TOP_POTENTIAL in series:
+        motion.append(Plot("Effective potential along the motion (J)", TOP_POTENTIAL, True, rng(TOP_POTENTIAL, True)))
     out: list[Plot] = []
     energy_names = series[ENERGY][1]
     out.append(Plot("Energy (J)", ENERGY, len(energy_names) > 1,
@@ -114,13 +125,14 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
 
 def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None, active: str = MOTION,
               eye: tuple[np.ndarray, np.ndarray] | None = None, span: tuple[float, float] | None = None,
-              events: list[rrb.View] | None = None) -> rrb.Blueprint:
+              events: list[rrb.View] | None = None, portrait: bool = False) -> rrb.Blueprint:
     """The default layout: the 3D view (and the run panel as a tab) on the left, on the right the
     plots in tabs (``groups``), each a two-column grid; ``active`` is the tab shown first; ``eye``
     (position, look target) the 3D view's default camera (the one labels are laid out for).  Trails show the last ``trail_seconds`` before the time cursor
     (the whole paths stay, dimmed); legends sit in the top-right corner, above the data; the plots'
     time axis shows ``span`` (s: the whole run, not a window around the time cursor); ``events``:
-    the views of the run's events, in a tab of their own (``EVENTS_TAB``)."""
+    the views of the run's events, in a tab of their own (``EVENTS_TAB``); ``portrait``: the
+    torque-free phase portrait's 3D view beside the body's."""
     overrides = {}
     if trail_seconds is not None:
         window = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.cursor_relative(seconds=-trail_seconds),
@@ -137,6 +149,7 @@ def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None,
                 rrb.Spatial3DView(origin="/world", name="Body (space frame)", overrides=overrides,
                                   eye_controls=None if eye is None else rrb.EyeControls3D(
                                       position=eye[0], look_target=eye[1], eye_up=[0.0, 0.0, 1.0])),
+                *([rrb.Spatial3DView(origin=PORTRAIT, name="Phase portrait (L, body frame)")] if portrait else []),
                 rrb.TextDocumentView(origin=INFO, name="Run"),
             ),
             rrb.Tabs(*tabs, active_tab=names.index(active) if active in names else 0),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rotlab.recording import portrait_view
 from rotlab.trajectory import RunSummary
 
 
@@ -16,6 +17,7 @@ SCENE_KEY = {  # what each drawn thing is (the 3D view's labels are short symbol
     "F1, M1, mg": "applied loads (magenta): a force at its point of application, a torque at the fixed point, space frame",
     "orange traces": "torque-free: herpolhode on the invariable plane (space) and polhode (body), tips of s·ω",
     "orange wireframe": "torque-free: the energy ellipsoid ω·Iω = 2T (scaled by s), fixed in the body; it rolls on the invariable plane, touching it at the tip of s·ω",
+    "coloured dots": "events: where the reference axis's tip was at each occurrence, in the colour of the event's first series in the Events tab",
 }
 
 
@@ -44,8 +46,11 @@ def run_report(run: RunSummary, scales: dict[str, tuple[float, str]] | None = No
     lines += [f"| {name} | {drift:.3e} |" for name, drift in run.max_drift().items()]
     if stats.failure:
         lines += ["", f"**Run stopped:** {stats.failure}"]
+    lines += portrait_view.top_report(scene)
     if scales:
         lines += ["", "## The 3D view", "", "| symbol | what |", "|---|---|"]
         lines += [f"| {symbol} | {what} |" for symbol, what in SCENE_KEY.items()]
+        if portrait_view.has_polhodes(scene):
+            lines.append(f"| Phase portrait tab | {portrait_view.POLHODE_NOTE} |")
         lines += ["", "Arrow scales: " + "; ".join(f"{symbol}: {value:.3g} {unit}" for symbol, (value, unit) in scales.items())]
     return "\n".join(lines) + "\n"

@@ -53,6 +53,8 @@ INVARIANT: dict[str, Color] = {
 # events: the values recorded at each occurrence, one hue each (not red/green/blue: those mean components)
 EVENT_MARKERS: list[Color] = [(255, 160, 30), (175, 100, 245), (60, 200, 210), (240, 240, 80), (240, 80, 200), (235, 235, 235)]
 SECTION: Color = (90, 215, 230)  # the points of a Poincaré section
+POLHODE: Color = (150, 100, 40)  # the phase portrait's family of polhodes (ω's orange, dimmed)
+SEPARATRIX: Color = (230, 70, 70)  # the separatrices and the unstable equilibria
 
 MAX_3D_LABEL = 3
 

@@ -108,6 +108,10 @@ def series_colors(entity: str, names: list[str]) -> list[style.Color] | None:
         return [style.ENERGY[n] for n in names]
     if entity.startswith((layout.INVARIANTS + "/", layout.INVARIANTS_LOG + "/")):
         return [style.INVARIANT.get(entity.rsplit("/", 1)[1], style.FIELD)]
+    if entity == layout.TOP_POTENTIAL:
+        return [style.ENERGY["V"], style.ENERGY["T+V"]]
+    if entity == layout.EULER_THETA_TURNING:
+        return [style.SEPARATRIX, style.SEPARATRIX]
     single = {layout.EULER_THETA: style.ENERGY["T+V−W"], layout.EULER_PSI: style.ENERGY["V"],
               layout.EULER_SPIN_RATE: style.L, layout.LOAD_POWER: style.LOAD}
     if entity in single:

@@ -30,7 +30,7 @@ import rerun as rr
 from rotlab import invariants
 from rotlab.core.quaternion import rotate_to_space_array
 from rotlab.errors import InputError, RunFailure
-from rotlab.recording import labels, layout, visuals
+from rotlab.recording import labels, layout, portrait_view, visuals
 from rotlab.recording.events_view import event_views, log_events
 from rotlab.recording.geometry import MAX_PATH_POINTS, Geometry, scene_geometry
 from rotlab.recording.report import run_report
@@ -201,7 +201,7 @@ class RecordingWriter:
             views = _views(thinned, self.scales)
             self.sink.update_blueprint(run_blueprint(thinned, views, summary.events))  # plot ranges from the whole run
             _write_static(self.rec, thinned, views, summary)
-            log_events(self.rec, summary.events)
+            log_events(self.rec, summary.events, views.geometry.axis_body, visuals.AXES_LENGTH * views.shape.size)  # on the axis trace
 
 
 class Thinned:
@@ -248,7 +248,7 @@ def run_blueprint(traj: Trajectory, views: _Views, events: dict[str, EventLog] |
     time_ = traj.scene.scenario.time  # the whole span the run is asked for, known from its first chunk on
     span = (time_.start, time_.end)
     return layout.blueprint(groups, window, active, labels.camera(visuals.reach(traj, views)), span=span,
-                            events=event_views(events, span) if events else None)
+                            events=event_views(events, span) if events else None, portrait=portrait_view.has_polhodes(traj.scene))
 
 
 def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
@@ -276,6 +276,7 @@ def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
     if traj.euler_angles is not None:
         out[layout.EULER_ANGLES] = (traj.euler_angles, ["ψ", "θ", "φ"])
     out.update(visuals.euler_series(traj))
+    out.update(portrait_view.top_series(traj, visuals.degrees_wanted(traj.scene)))
     out.update(visuals.load_series(traj))
     return out
 
@@ -312,6 +313,7 @@ def _views(traj: Trajectory, scales: tuple[float, float, dict[str, float]] | Non
 
 def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views, summary: RunSummary) -> None:
     visuals.log_static(rec, traj, views)
+    portrait_view.log_polhodes(rec, traj)
     scales = {"ω": (views.omega_scale, "m per rad/s"), "L": (views.L_scale, "m per kg·m²/s"),
               "F": (views.load_scales["force"], "m per N"), "M": (views.load_scales["torque"], "m per N·m")}
     rec.log(layout.INFO, rr.TextDocument(run_report(summary, scales), media_type="text/markdown"), static=True)
@@ -349,6 +351,7 @@ def _write_visual(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chun
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
         rec.send_columns(layout.BODY, index, rr.Transform3D.columns(quaternion=visuals.xyzw(views.unit_q[rows])))
         rec.send_columns(layout.AXIS_TIP, index, rr.Points3D.columns(positions=views.geometry.axis_tips[rows]))
+        portrait_view.send_now(rec, traj, index, rows)
         for entity, values in vectors.items():
             rec.send_columns(entity, index, rr.Arrows3D.columns(vectors=values[rows]))
         for entity, values in thin.items():
