@@ -430,6 +430,35 @@ def animate(
 
 
 @app.command()
+def plot(
+    recording: Annotated[Path, typer.Argument(help="A recording written by `rotlab run` (or rotlab.save).")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Figure to write: .pdf, .svg or .png.")] = Path("figure.pdf"),
+    panels: Annotated[Optional[str], typer.Option("--panels", help="Comma-separated panels (default: all; a wrong name lists them).")] = None,
+    start: Annotated[Optional[float], typer.Option("--from", help="Start of the time span, s.")] = None,
+    end: Annotated[Optional[float], typer.Option("--to", help="End of the time span, s.")] = None,
+    size: Annotated[Optional[str], typer.Option("--size", help="Figure size WIDTHxHEIGHT in inches.")] = None,
+) -> None:
+    """Figures for a report (light background, units on every axis): the viewer's plots of a
+    recording, its events and Poincaré sections (needs matplotlib: pip install 'rotlab[plots]')."""
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.recording.plot import plot as draw
+
+    try:
+        inches = None
+        if size is not None:
+            try:
+                inches = tuple(float(x) for x in size.lower().split("x"))
+                assert len(inches) == 2 and all(0 < x <= 100 for x in inches)
+            except (ValueError, AssertionError):
+                raise InputError("--size", f"'{size}': give WIDTHxHEIGHT in inches, e.g. 8x10") from None
+        keys = [k.strip() for k in panels.split(",") if k.strip()] if panels else None
+        path, drawn = draw(recording, output, keys, start, end, inches)
+    except (InputError, RunFailure) as exc:
+        _fail(exc)
+    typer.echo(f"wrote {path}: {', '.join(p.key for p in drawn)}")
+
+
+@app.command()
 def stress(
     quick: Annotated[bool, typer.Option("--quick", help="The subset that runs in under two minutes.")] = False,
     faults: Annotated[bool, typer.Option("--faults", help="Run the fault campaign instead: hostile inputs, paths and signals against the real CLI.")] = False,

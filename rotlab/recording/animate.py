@@ -19,19 +19,10 @@ import numpy as np
 from rotlab.core import quaternion as quat
 from rotlab.errors import InputError, RunFailure
 from rotlab.recording import layout, style, visuals
-from rotlab.recording.reader import entity_paths, read_series
+from rotlab.recording.reader import entity_paths, read_series, read_static
 
 MAX_FRAMES = 3000
 MESH = (18, 10)  # ellipsoid mesh: longitude × latitude lines
-
-
-def _static(path: Path, entity: str, component: str) -> list:
-    from rerun.chunk import RrdReader
-
-    for chunk in RrdReader(str(path)).stream().filter(content=entity, is_static=True, components=component).to_chunks():
-        batch = chunk.to_record_batch()
-        return batch.column(batch.schema.get_field_index(component)).to_pylist()[-1]
-    raise KeyError(f"no static {component} at {entity}")
 
 
 def _at(t_frames: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -98,10 +89,10 @@ def animate(recording: Path, output: Path, fps: float = 20.0, speed: float = 1.0
 
 def _read_scene(path: Path, t: np.ndarray) -> dict:
     """Everything the frames need, read from the recording."""
-    half = np.asarray(_static(path, layout.BODY_SHAPE, "Ellipsoids3D:half_sizes")[0], dtype=float)
-    center = np.asarray(_static(path, layout.BODY_SHAPE, "Ellipsoids3D:centers")[0], dtype=float)
-    xyzw = np.asarray(_static(path, layout.BODY_SHAPE, "Ellipsoids3D:quaternions")[0], dtype=float)
-    axes_length = float(np.max(np.abs(np.asarray(_static(path, layout.BODY_AXES, "Arrows3D:vectors"), dtype=float))))
+    half = np.asarray(read_static(path, layout.BODY_SHAPE, "Ellipsoids3D:half_sizes")[0], dtype=float)
+    center = np.asarray(read_static(path, layout.BODY_SHAPE, "Ellipsoids3D:centers")[0], dtype=float)
+    xyzw = np.asarray(read_static(path, layout.BODY_SHAPE, "Ellipsoids3D:quaternions")[0], dtype=float)
+    axes_length = float(np.max(np.abs(np.asarray(read_static(path, layout.BODY_AXES, "Arrows3D:vectors"), dtype=float))))
     _, omega = read_series(path, layout.OMEGA)
     entities = entity_paths(path)
     arrows = {}

@@ -43,6 +43,14 @@ def read_text(path: str | Path, entity: str) -> str:
     return text
 
 
+def read_static(path: str | Path, entity: str, component: str) -> list:
+    """The last value of one static component (a list: one element per instance); KeyError when absent."""
+    for chunk in RrdReader(str(path)).stream().filter(content=entity, is_static=True, components=component).to_chunks():
+        batch = chunk.to_record_batch()
+        return batch.column(batch.schema.get_field_index(component)).to_pylist()[-1]
+    raise KeyError(f"no static {component} at {entity}")
+
+
 def entity_paths(path: str | Path) -> set[str]:
     """Every entity of the recording (not its blueprint) that holds data."""
     return {str(chunk.entity_path) for chunk in RrdReader(str(path)).stream().to_chunks()}

@@ -1,0 +1,199 @@
+"""``rotlab plot``: figures for a report from a run recording — the panels the viewer's final
+layout shows (their titles carry the units: ``layout.plots``), drawn with matplotlib on a light
+background, one subplot each, over a chosen time span; and each Poincaré section
+(``/sections/<name>``) as a scatter of its points with its formulas on the axes.
+
+The recording is the only input: the panels are the time-series views of its blueprints (a
+streamed run sends its first chunk's and its final layout: the union, one panel per entity), the
+series their entities' scalars (``read_series``), the legends their
+static names.  A series longer than ``MAX_POINTS`` is drawn as its min–max envelope per bucket
+(the band a fast nutation sweeps stays visible; the file stays small).  Optional dependency:
+``pip install 'rotlab[plots]'``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rotlab.errors import InputError, RunFailure
+from rotlab.recording import layout
+from rotlab.recording.reader import entity_paths, query_matches, read_series, read_static, read_text, view_queries
+
+FORMATS = (".pdf", ".svg", ".png")
+MAX_POINTS = 4000  # per series drawn: longer ones become their min-max envelope
+ORDER = (layout.OMEGA, layout.L_SPACE, layout.EULER_THETA, layout.EULER_PSI, layout.EULER_SPIN_RATE, layout.TOP_POTENTIAL,
+         layout.ENERGY, layout.INVARIANTS_LOG, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE, layout.LOAD_POWER)
+XYZ = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z (p, q, r) in red, green, blue, as in the viewer
+
+
+@dataclass(frozen=True)
+class Panel:
+    key: str  # what --panels names it by
+    title: str  # with its unit
+    origin: str  # entity path
+    section: bool = False  # a Poincaré section (x-y scatter), not a time series
+
+
+def panels(recording: Path) -> list[Panel]:
+    """The recording's panels, in reading order: the final layout's plots, then the events' and sections'."""
+    found: dict[str, Panel] = {}
+    for name, origin, _ in view_queries(recording).values():  # both layouts a streamed run sends (its first chunk's, its end's)
+        if origin.startswith(layout.SECTIONS + "/"):
+            found[origin] = Panel("section_" + origin.rsplit("/", 1)[1], name, origin, section=True)
+        elif origin in ORDER or origin.startswith(layout.EVENTS + "/"):
+            key = "event_" + origin.rsplit("/", 1)[1] if origin.startswith(layout.EVENTS + "/") else origin.rsplit("/", 1)[1]
+            found[origin] = Panel(key, name, origin)
+
+    def rank(panel: Panel) -> tuple[int, str]:
+        return (ORDER.index(panel.origin) if panel.origin in ORDER else len(ORDER) + panel.section, panel.origin)
+
+    return sorted(found.values(), key=rank)
+
+
+def plot(recording: Path, output: Path, keys: list[str] | None = None, start: float | None = None, end: float | None = None,
+         size: tuple[float, float] | None = None) -> tuple[Path, list[Panel]]:
+    """Write the figure of ``keys`` (None: every panel) over [start, end] s to ``output``
+    (.pdf, .svg or .png, by its name; ``size`` in inches); returns the path and the panels drawn."""
+    if output.suffix.lower() not in FORMATS:
+        raise InputError("--output", f"'{output.name}': give a name ending in {', '.join(FORMATS)}")
+    if not recording.is_file():
+        raise InputError(str(recording), "no such recording")
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise RunFailure("`rotlab plot` needs matplotlib: pip install 'rotlab[plots]'") from None
+    from rotlab.recording.writer import check_output_path
+
+    check_output_path(output, (recording,))
+    try:
+        t_all, _ = read_series(recording, layout.OMEGA)
+        available = panels(recording)
+    except Exception:
+        raise InputError(str(recording), "not a rotlab run recording (no /body/omega series)") from None
+    span = _span(float(t_all[0]), float(t_all[-1]), start, end)
+    chosen = _chosen(available, keys)
+    entities = entity_paths(recording)
+    columns = 1 if len(chosen) <= 3 else 2
+    rows = math.ceil(len(chosen) / columns)
+    figure = plt.figure(figsize=size or (7.5 * columns, 2.6 * rows + 0.6), layout="constrained")
+    figure.suptitle(_title(recording))
+    for k, panel in enumerate(chosen):
+        ax = figure.add_subplot(rows, columns, k + 1)
+        if panel.section:
+            _section(ax, recording, panel, span)
+        else:
+            _series(ax, recording, panel, entities, span)
+    tmp = output.with_name(f".{output.stem}.{os.getpid()}.tmp{output.suffix}")
+    try:
+        figure.savefig(tmp, format=output.suffix.lower()[1:], dpi=150)
+        os.replace(tmp, output)
+    except OSError as exc:
+        raise RunFailure(f"could not write {output}: {exc.strerror or exc}") from None
+    finally:
+        plt.close(figure)
+        tmp.unlink(missing_ok=True)
+    return output, chosen
+
+
+def _span(first: float, last: float, start: float | None, end: float | None) -> tuple[float, float]:
+    low, high = first if start is None else start, last if end is None else end
+    for key, value in (("--from", start), ("--to", end)):
+        if value is not None and not first <= value <= last:
+            raise InputError(key, f"{value:g} s is outside the recording's span [{first:g}, {last:g}] s")
+    if not low < high:
+        raise InputError("--to", f"the span [{low:g}, {high:g}] s is empty: --to must be after --from")
+    return low, high
+
+
+def _chosen(available: list[Panel], keys: list[str] | None) -> list[Panel]:
+    if not keys:
+        return available
+    by_key = {p.key: p for p in available}
+    unknown = [k for k in keys if k not in by_key]
+    if unknown:
+        raise InputError("--panels", f"no panel '{unknown[0]}' in this recording: choose from {', '.join(by_key)}")
+    return [by_key[k] for k in keys]
+
+
+def _title(recording: Path) -> str:
+    try:
+        first = read_text(recording, layout.INFO).splitlines()[0]
+    except (KeyError, IndexError):
+        return recording.stem
+    return first.lstrip("# ").strip() or recording.stem
+
+
+def _series(ax, recording: Path, panel: Panel, entities: set[str], span: tuple[float, float]) -> None:
+    """Every scalar entity the panel's view shows, its series named as in the viewer."""
+    points = panel.origin.startswith(layout.EVENTS + "/")
+    drawn = 0
+    for entity in sorted(query_matches(["$origin/**"], panel.origin, entities)):
+        try:
+            t, values = read_series(recording, entity)
+        except KeyError:
+            continue
+        names = _names(recording, entity, values.shape[1])
+        keep = (t >= span[0]) & (t <= span[1])
+        t, values = t[keep], values[keep]
+        for j, name in enumerate(names):
+            color = XYZ[j] if panel.origin in (layout.OMEGA, layout.L_SPACE, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE) else None
+            if points:
+                ax.plot(t, values[:, j], "o", ms=3, label=name, color=color)
+            else:
+                ax.plot(*envelope(t, values[:, j]), lw=0.8, label=name, color=color)
+            drawn += 1
+    ax.set_title(panel.title, fontsize=10)
+    ax.set_xlabel("t (s)")
+    ax.set_xlim(*span)
+    ax.grid(alpha=0.3)
+    if drawn > 1:
+        ax.legend(fontsize=8, loc="best")
+
+
+def _section(ax, recording: Path, panel: Panel, span: tuple[float, float]) -> None:
+    """The section's points (record[0], record[1]) of the occurrences within the span."""
+    name = panel.origin.rsplit("/", 1)[1]
+    xy = np.asarray(read_static(recording, panel.origin, "Points2D:positions"), dtype=float).reshape(-1, 2)
+    t, _ = read_series(recording, f"{layout.EVENTS}/{name}")
+    keep = (t >= span[0]) & (t <= span[1]) if t.shape[0] == xy.shape[0] else np.ones(xy.shape[0], dtype=bool)
+    formulas = _names(recording, f"{layout.EVENTS}/{name}", 2)
+    ax.plot(xy[keep, 0], xy[keep, 1], ".", ms=3)
+    ax.set_title(f"Poincaré section {name}: {int(keep.sum())} points", fontsize=10)
+    ax.set_xlabel(formulas[0])
+    ax.set_ylabel(formulas[1])
+    ax.grid(alpha=0.3)
+
+
+def _names(recording: Path, entity: str, count: int) -> list[str]:
+    """The series names the viewer shows for ``entity`` (its static SeriesLines or SeriesPoints names)."""
+    for component in ("SeriesLines:names", "SeriesPoints:names"):
+        try:
+            names = [str(n) for n in read_static(recording, entity, component)]
+        except KeyError:
+            continue
+        if len(names) >= count:
+            return names[:count]
+    return [entity.rsplit("/", 1)[1] + (f"[{j}]" if count > 1 else "") for j in range(count)]
+
+
+def envelope(t: np.ndarray, y: np.ndarray, limit: int = MAX_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """(t, y) itself, or when longer than ``limit`` its envelope: per bucket of consecutive
+    samples, the minimum and the maximum in their time order (2 points a bucket, ≤ ``limit``)."""
+    n = t.shape[0]
+    if n <= limit:
+        return t, y
+    buckets = limit // 2
+    edges = np.linspace(0, n, buckets + 1).astype(np.int64)
+    where_low = np.array([a + int(np.argmin(y[a:b])) for a, b in zip(edges[:-1], edges[1:])])
+    where_high = np.array([a + int(np.argmax(y[a:b])) for a, b in zip(edges[:-1], edges[1:])])
+    first = where_low <= where_high
+    index = np.column_stack([np.where(first, where_low, where_high), np.where(first, where_high, where_low)]).ravel()
+    return t[index], y[index]

@@ -1,0 +1,68 @@
+"""``rotlab plot``: report figures read back from a recording — the viewer's panels with their
+units, the events and Poincaré sections, a chosen span, PDF/SVG/PNG written whole; bad input is a
+one-line error and no file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rotlab
+from rotlab.recording.plot import MAX_POINTS, envelope
+from tests.conftest import CONFIGS
+
+
+@pytest.fixture(scope="module")
+def top_rrd(tmp_path_factory):
+    path = tmp_path_factory.mktemp("plot") / "top.rrd"
+    rotlab.save(path, rotlab.simulate(CONFIGS / "lagrange.toml", duration=2.0))
+    return path
+
+
+@pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".pdf", b"%PDF"), (".svg", b"<?xml")])
+def test_every_panel_of_a_top_in_each_format(cli, top_rrd, tmp_path, suffix, magic):
+    result = cli("plot", str(top_rrd), "-o", f"fig{suffix}")
+    assert result.exit_code == 0, result.output
+    assert result.stdout.strip() == f"wrote fig{suffix}: omega, L_space, theta, psi, spin_rate, potential, energy, invariants_log10"
+    assert (tmp_path / f"fig{suffix}").read_bytes()[:len(magic)] == magic
+    assert not list(tmp_path.glob(".fig*"))  # no temporary left
+
+
+def test_chosen_panels_span_and_sections(cli, tmp_path):
+    cli("run", str(CONFIGS / "chaotic_top.toml"), "--set", "time.end=100", "-q", "-o", "c.rrd")
+    result = cli("plot", "c.rrd", "-o", "s.svg", "--panels", "omega,section_section", "--from", "20", "--to", "80")
+    assert result.exit_code == 0, result.output
+    svg = (tmp_path / "s.svg").read_text()
+    assert "ω body (rad/s)" in svg and "omega[0]" in svg and "Poincaré section section" in svg
+    section = rotlab.simulate(CONFIGS / "chaotic_top.toml", overrides={"time.end": 100.0}).events["section"]
+    inside = int(np.sum((section.t >= 20) & (section.t <= 80)))
+    assert f"{inside} points" in svg
+
+
+@pytest.mark.parametrize("args, key, words", [
+    (["-o", "fig.jpg"], "--output", "give a name ending in .pdf, .svg, .png"),
+    (["--panels", "omega,spin"], "--panels", "no panel 'spin' in this recording: choose from omega, L_space, theta"),
+    (["--from", "5"], "--from", "outside the recording's span [0, 2] s"),
+    (["--from", "1", "--to", "0.5"], "--to", "must be after --from"),
+    (["--size", "big"], "--size", "WIDTHxHEIGHT"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(cli, top_rrd, tmp_path, args, key, words):
+    result = cli("plot", str(top_rrd), *(args if "-o" in args else ["-o", "fig.png", *args]))
+    assert result.exit_code == 2 and key in result.stderr and words in result.stderr, result.output
+    assert result.stderr.count("\n") == 1 and not list(tmp_path.glob("fig*"))
+
+
+def test_a_file_that_is_not_a_recording_is_refused(cli, tmp_path):
+    (tmp_path / "x.rrd").write_bytes(b"not a recording")
+    result = cli("plot", "x.rrd", "-o", "f.png")
+    assert result.exit_code == 2 and "not a rotlab run recording" in result.stderr
+
+
+def test_a_long_series_is_drawn_as_its_envelope():
+    t = np.linspace(0.0, 100.0, 1_000_001)
+    y = np.sin(2 * np.pi * 37.3 * t) * (1 + 0.1 * np.sin(t)) + np.random.default_rng(1).normal(0, 1e-3, t.size)
+    te, ye = envelope(t, y)
+    assert te.size <= MAX_POINTS and np.all(np.diff(te) >= 0)
+    assert ye.max() == y.max() and ye.min() == y.min()  # every bucket's extremes are kept: the band stays
+    short = y[:100]
+    assert envelope(t[:100], short)[1] is short  # a short one as it is
