@@ -459,6 +459,22 @@ def plot(
 
 
 @app.command()
+def export(
+    recording: Annotated[Path, typer.Argument(help="A recording written by `rotlab run` (or rotlab.save).")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Table to write: .csv or .parquet.")] = Path("run.csv"),
+) -> None:
+    """A run's samples as a table: the columns and units of Trajectory.to_dataframe, as CSV or Parquet."""
+    from rotlab.errors import InputError, RunFailure
+    from rotlab.recording.export import export as write
+
+    try:
+        path, rows, columns = write(recording, output)
+    except (InputError, RunFailure) as exc:
+        _fail(exc)
+    typer.echo(f"wrote {path}: {rows:,} rows × {columns} columns")
+
+
+@app.command()
 def stress(
     quick: Annotated[bool, typer.Option("--quick", help="The subset that runs in under two minutes.")] = False,
     faults: Annotated[bool, typer.Option("--faults", help="Run the fault campaign instead: hostile inputs, paths and signals against the real CLI.")] = False,

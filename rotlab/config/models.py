@@ -300,6 +300,17 @@ def _unit_quaternion(key: str, value: tuple[float, ...]) -> None:
 Formula3 = tuple[str, str, str]
 
 
+def _check_formula_inputs(up: tuple[float, float, float], constants: dict[str, float]) -> None:
+    """What formulas read besides the state: ``up`` (the direction gamma shows) and the names of ``constants``."""
+    if float(np.linalg.norm(up)) == 0.0:
+        raise _invalid("up", "up must be a non-zero direction (space frame)")
+    for name in constants:
+        try:
+            expressions.check_constant_name(name)
+        except expressions.FormulaError as exc:
+            raise _invalid(f"constants.{name}", exc.message) from None
+
+
 class Expression(_Model):
     """Torque, or force at a body point, whose components are formulas (``rotlab.config.expressions``)
     of t, omega (body), q (Λ), gamma (``up`` in body components), L (body) and ``constants``;
@@ -320,13 +331,7 @@ class Expression(_Model):
             raise _invalid("torque", "give exactly one of torque = [\"Mx\", \"My\", \"Mz\"] or force = [...] with point = [x, y, z]")
         if (self.force is None) != (self.point is None):
             raise _invalid("point", "a force needs point = [x, y, z] (m, body frame), and a torque takes no point")
-        if float(np.linalg.norm(self.up)) == 0.0:
-            raise _invalid("up", "up must be a non-zero direction (space frame)")
-        for name in self.constants:
-            try:
-                expressions.check_constant_name(name)
-            except expressions.FormulaError as exc:
-                raise _invalid(f"constants.{name}", exc.message) from None
+        _check_formula_inputs(self.up, self.constants)
         self.programs()
         return self
 
@@ -416,18 +421,12 @@ class Event(_Model):
 
     @model_validator(mode="after")
     def _valid(self) -> Event:
-        if not (self.name.isidentifier() and len(self.name) <= EVENT_NAME_LENGTH):
+        if not (self.name.isascii() and self.name.isidentifier() and len(self.name) <= EVENT_NAME_LENGTH):
             raise _invalid("name", f"event name {self.name!r} must be a plain identifier (letters, digits, _) of at most "
                                    f"{EVENT_NAME_LENGTH} characters: it names the event's columns and recording path")
         if not self.terminal and "count" in self.model_fields_set:
             raise _invalid("count", "count applies to a terminal event: set terminal = true or remove count")
-        if float(np.linalg.norm(self.up)) == 0.0:
-            raise _invalid("up", "up must be a non-zero direction (space frame)")
-        for name in self.constants:
-            try:
-                expressions.check_constant_name(name)
-            except expressions.FormulaError as exc:
-                raise _invalid(f"constants.{name}", exc.message) from None
+        _check_formula_inputs(self.up, self.constants)
         self.programs()
         return self
 

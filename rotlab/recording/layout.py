@@ -32,6 +32,8 @@ INVARIANTS = "/invariants"  # /invariants/<name>: relative drift
 INVARIANTS_LOG = "/invariants_log10"  # /invariants_log10/<name>: log10 |relative drift| (plotted)
 EULER_ANGLES = "/euler_angles"  # (ψ, θ, φ) rad
 INFO = "/info"  # TextDocument: scenario, method, run statistics
+SCENARIO = "/scenario"  # static TextDocument: the validated scenario as JSON, {"scenario": …, "python_torque": bool} (`rotlab export`)
+WORK = "/body/work"  # J, W = ∫ M_nc·ω dt of the non-conservative loads, every sample (where loads do work): the state's last column
 # extensions (#13): readable Euler angles, trails, Poinsot's energy ellipsoid, loads
 EULER_THETA = "/euler/theta"  # θ nutation (deg where the scenario uses degrees, else rad)
 EULER_PSI = "/euler/psi"  # ψ precession wrapped to one turn

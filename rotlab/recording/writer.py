@@ -17,6 +17,7 @@ for the paths and the run report.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import stat
@@ -43,7 +44,7 @@ CHUNK_ROWS = 16384  # rows per send_columns call: enough that Rerun's fixed cost
 VISUAL_ROWS = 4096  # visual rows converted and sent together: their conversion (labels, geometry) holds far more per row than the state's
 VISUAL_SECONDS = 0.5  # collected visual rows are sent at least this often (a live viewer keeps up)
 LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
-FULL_RATE = (layout.QUATERNION, layout.OMEGA)  # every sample: the state, and the invariants' drifts (``full_rate``)
+FULL_RATE = (layout.QUATERNION, layout.OMEGA, layout.WORK)  # every sample: the state, and the invariants' drifts (``full_rate``)
 
 
 def check_output_path(path: Path, inputs: tuple[Path, ...] = ()) -> None:
@@ -317,6 +318,8 @@ def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views, summ
     scales = {"ω": (views.omega_scale, "m per rad/s"), "L": (views.L_scale, "m per kg·m²/s"),
               "F": (views.load_scales["force"], "m per N"), "M": (views.load_scales["torque"], "m per N·m")}
     rec.log(layout.INFO, rr.TextDocument(run_report(summary, scales), media_type="text/markdown"), static=True)
+    scenario = {"scenario": traj.scene.scenario.model_dump(mode="json", exclude_unset=True), "python_torque": traj.scene.loads.user is not None}
+    rec.log(layout.SCENARIO, rr.TextDocument(json.dumps(scenario), media_type="text/plain"), static=True)
 
 
 def full_rate(entity: str) -> bool:
@@ -332,6 +335,8 @@ def _write_full_rate(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int)
     """The ``full_rate`` series (state and drifts), every sample of ``traj``."""
     ns = _nanoseconds(traj.t)
     full = {layout.QUATERNION: traj.quaternion, layout.OMEGA: traj.omega}
+    if traj.work is not None:
+        full[layout.WORK] = traj.work[:, None]
     full.update({entity: drift[:, None] for name, drift in traj.invariants.items() if full_rate(entity := f"{layout.INVARIANTS}/{name}")})
     for rows in _slices(traj.t.shape[0], chunk_rows):
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
