@@ -431,7 +431,7 @@ def animate(
 
 @app.command()
 def plot(
-    recording: Annotated[Path, typer.Argument(help="A recording written by `rotlab run` (or rotlab.save).")],
+    recordings: Annotated[list[Path], typer.Argument(help="Recordings written by `rotlab run` (or rotlab.save); several are overlaid.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Figure to write: .pdf, .svg or .png.")] = Path("figure.pdf"),
     panels: Annotated[Optional[str], typer.Option("--panels", help="Comma-separated panels (default: all; a wrong name lists them).")] = None,
     start: Annotated[Optional[float], typer.Option("--from", help="Start of the time span, s.")] = None,
@@ -439,7 +439,8 @@ def plot(
     size: Annotated[Optional[str], typer.Option("--size", help="Figure size WIDTHxHEIGHT in inches.")] = None,
 ) -> None:
     """Figures for a report (light background, units on every axis): the viewer's plots of a
-    recording, its events and Poincaré sections (needs matplotlib: pip install 'rotlab[plots]')."""
+    recording, its events and Poincaré sections; several recordings overlaid (needs matplotlib:
+    pip install 'rotlab[plots]')."""
     from rotlab.errors import InputError, RunFailure
     from rotlab.recording.plot import plot as draw
 
@@ -452,7 +453,7 @@ def plot(
             except (ValueError, AssertionError):
                 raise InputError("--size", f"'{size}': give WIDTHxHEIGHT in inches, e.g. 8x10") from None
         keys = [k.strip() for k in panels.split(",") if k.strip()] if panels else None
-        path, drawn = draw(recording, output, keys, start, end, inches)
+        path, drawn = draw(recordings, output, keys, start, end, inches)
     except (InputError, RunFailure) as exc:
         _fail(exc)
     typer.echo(f"wrote {path}: {', '.join(p.key for p in drawn)}")

@@ -66,3 +66,11 @@ def test_a_long_series_is_drawn_as_its_envelope():
     assert ye.max() == y.max() and ye.min() == y.min()  # every bucket's extremes are kept: the band stays
     short = y[:100]
     assert envelope(t[:100], short)[1] is short  # a short one as it is
+
+
+def test_several_runs_are_overlaid(cli, top_rrd, tmp_path):
+    rotlab.save(tmp_path / "rk4.rrd", rotlab.simulate(CONFIGS / "lagrange.toml", method="rk4", duration=2.0, overrides={"solver.step": 2e-3}))
+    result = cli("plot", str(top_rrd), "rk4.rrd", "-o", "cmp.svg", "--panels", "theta,invariants_log10", "--to", "1")
+    assert result.exit_code == 0, result.output
+    svg = (tmp_path / "cmp.svg").read_text()
+    assert "Comparison: top, rk4" in svg and "top: θ" in svg and "rk4: θ" in svg and "rk4: T+V−W" in svg

@@ -1,5 +1,5 @@
-"""``rotlab plot``: figures for a report from a run recording — the panels the viewer's final
-layout shows (their titles carry the units: ``layout.plots``), drawn with matplotlib on a light
+"""``rotlab plot``: figures for a report from run recordings (one, or several overlaid: methods,
+tolerances, parameters side by side) — the panels the viewer's layout shows (their titles carry the units: ``layout.plots``), drawn with matplotlib on a light
 background, one subplot each, over a chosen time span; and each Poincaré section
 (``/sections/<name>``) as a scatter of its points with its formulas on the axes.
 
@@ -29,6 +29,7 @@ MAX_POINTS = 4000  # per series drawn: longer ones become their min-max envelope
 ORDER = (layout.OMEGA, layout.L_SPACE, layout.EULER_THETA, layout.EULER_PSI, layout.EULER_SPIN_RATE, layout.TOP_POTENTIAL,
          layout.ENERGY, layout.INVARIANTS_LOG, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE, layout.LOAD_POWER)
 XYZ = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z (p, q, r) in red, green, blue, as in the viewer
+LINE_STYLES = ("-", "--", ":", "-.")  # overlaid runs, in the order given
 
 
 @dataclass(frozen=True)
@@ -55,14 +56,16 @@ def panels(recording: Path) -> list[Panel]:
     return sorted(found.values(), key=rank)
 
 
-def plot(recording: Path, output: Path, keys: list[str] | None = None, start: float | None = None, end: float | None = None,
+def plot(recordings: list[Path], output: Path, keys: list[str] | None = None, start: float | None = None, end: float | None = None,
          size: tuple[float, float] | None = None) -> tuple[Path, list[Panel]]:
     """Write the figure of ``keys`` (None: every panel) over [start, end] s to ``output``
-    (.pdf, .svg or .png, by its name; ``size`` in inches); returns the path and the panels drawn."""
+    (.pdf, .svg or .png, by its name; ``size`` in inches); several recordings are overlaid
+    (one line style each, named by file).  Returns the path and the panels drawn."""
     if output.suffix.lower() not in FORMATS:
         raise InputError("--output", f"'{output.name}': give a name ending in {', '.join(FORMATS)}")
-    if not recording.is_file():
-        raise InputError(str(recording), "no such recording")
+    for recording in recordings:
+        if not recording.is_file():
+            raise InputError(str(recording), "no such recording")
     try:
         import matplotlib
 
@@ -72,25 +75,27 @@ def plot(recording: Path, output: Path, keys: list[str] | None = None, start: fl
         raise RunFailure("`rotlab plot` needs matplotlib: pip install 'rotlab[plots]'") from None
     from rotlab.recording.writer import check_output_path
 
-    check_output_path(output, (recording,))
-    try:
-        t_all, _ = read_series(recording, layout.OMEGA)
-        available = panels(recording)
-    except Exception:
-        raise InputError(str(recording), "not a rotlab run recording (no /body/omega series)") from None
-    span = _span(float(t_all[0]), float(t_all[-1]), start, end)
-    chosen = _chosen(available, keys)
-    entities = entity_paths(recording)
+    check_output_path(output, tuple(recordings))
+    runs = [_Run.read(recording, len(recordings) > 1) for recording in recordings]
+    span = _span(min(r.first for r in runs), max(r.last for r in runs), start, end)
+    available: dict[str, Panel] = {}
+    for run in runs:
+        available.update({p.key: p for p in run.panels if p.key not in available})
+    chosen = _chosen(list(available.values()), keys)
     columns = 1 if len(chosen) <= 3 else 2
     rows = math.ceil(len(chosen) / columns)
     figure = plt.figure(figsize=size or (7.5 * columns, 2.6 * rows + 0.6), layout="constrained")
-    figure.suptitle(_title(recording))
+    figure.suptitle(_title(recordings[0]) if len(runs) == 1 else "Comparison: " + ", ".join(r.label for r in runs))
     for k, panel in enumerate(chosen):
         ax = figure.add_subplot(rows, columns, k + 1)
-        if panel.section:
-            _section(ax, recording, panel, span)
-        else:
-            _series(ax, recording, panel, entities, span)
+        for style_index, run in enumerate(runs):
+            if panel.key not in {p.key for p in run.panels}:
+                continue
+            if panel.section:
+                _section(ax, run, panel, span)
+            else:
+                _series(ax, run, panel, span, LINE_STYLES[style_index % len(LINE_STYLES)])
+        _finish(ax, panel, span, len(runs))
     tmp = output.with_name(f".{output.stem}.{os.getpid()}.tmp{output.suffix}")
     try:
         figure.savefig(tmp, format=output.suffix.lower()[1:], dpi=150)
@@ -101,6 +106,30 @@ def plot(recording: Path, output: Path, keys: list[str] | None = None, start: fl
         plt.close(figure)
         tmp.unlink(missing_ok=True)
     return output, chosen
+
+
+@dataclass(frozen=True)
+class _Run:
+    """One recording to draw: its panels, entities and span; ``label`` prefixes its series when overlaid."""
+
+    path: Path
+    label: str
+    panels: list[Panel]
+    entities: set[str]
+    first: float
+    last: float
+
+    @classmethod
+    def read(cls, path: Path, overlaid: bool) -> _Run:
+        try:
+            t, _ = read_series(path, layout.OMEGA)
+            found = panels(path)
+        except Exception:
+            raise InputError(str(path), "not a rotlab run recording (no /body/omega series)") from None
+        return cls(path, path.stem if overlaid else "", found, entity_paths(path), float(t[0]), float(t[-1]))
+
+    def name(self, series: str) -> str:
+        return f"{self.label}: {series}" if self.label else series
 
 
 def _span(first: float, last: float, start: float | None, end: float | None) -> tuple[float, float]:
@@ -131,45 +160,50 @@ def _title(recording: Path) -> str:
     return first.lstrip("# ").strip() or recording.stem
 
 
-def _series(ax, recording: Path, panel: Panel, entities: set[str], span: tuple[float, float]) -> None:
+def _series(ax, run: _Run, panel: Panel, span: tuple[float, float], line_style: str) -> None:
     """Every scalar entity the panel's view shows, its series named as in the viewer."""
     points = panel.origin.startswith(layout.EVENTS + "/")
-    drawn = 0
-    for entity in sorted(query_matches(["$origin/**"], panel.origin, entities)):
+    vectors = panel.origin in (layout.OMEGA, layout.L_SPACE, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE)
+    drawn = 0  # the panel's series so far: the same colour for the same series of every run
+    for entity in sorted(query_matches(["$origin/**"], panel.origin, run.entities)):
         try:
-            t, values = read_series(recording, entity)
+            t, values = read_series(run.path, entity)
         except KeyError:
             continue
-        names = _names(recording, entity, values.shape[1])
         keep = (t >= span[0]) & (t <= span[1])
         t, values = t[keep], values[keep]
-        for j, name in enumerate(names):
-            color = XYZ[j] if panel.origin in (layout.OMEGA, layout.L_SPACE, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE) else None
-            if points:
-                ax.plot(t, values[:, j], "o", ms=3, label=name, color=color)
-            else:
-                ax.plot(*envelope(t, values[:, j]), lw=0.8, label=name, color=color)
+        for j, name in enumerate(_names(run.path, entity, values.shape[1])):
+            color = XYZ[j] if vectors else f"C{drawn % 10}"
             drawn += 1
-    ax.set_title(panel.title, fontsize=10)
-    ax.set_xlabel("t (s)")
-    ax.set_xlim(*span)
-    ax.grid(alpha=0.3)
-    if drawn > 1:
-        ax.legend(fontsize=8, loc="best")
+            if points:
+                ax.plot(t, values[:, j], "o", ms=3, label=run.name(name), color=color, fillstyle="full" if line_style == "-" else "none")
+            else:
+                ax.plot(*envelope(t, values[:, j]), line_style, lw=0.8, label=run.name(name), color=color)
 
 
-def _section(ax, recording: Path, panel: Panel, span: tuple[float, float]) -> None:
+def _section(ax, run: _Run, panel: Panel, span: tuple[float, float]) -> None:
     """The section's points (record[0], record[1]) of the occurrences within the span."""
     name = panel.origin.rsplit("/", 1)[1]
-    xy = np.asarray(read_static(recording, panel.origin, "Points2D:positions"), dtype=float).reshape(-1, 2)
-    t, _ = read_series(recording, f"{layout.EVENTS}/{name}")
+    xy = np.asarray(read_static(run.path, panel.origin, "Points2D:positions"), dtype=float).reshape(-1, 2)
+    t, _ = read_series(run.path, f"{layout.EVENTS}/{name}")
     keep = (t >= span[0]) & (t <= span[1]) if t.shape[0] == xy.shape[0] else np.ones(xy.shape[0], dtype=bool)
-    formulas = _names(recording, f"{layout.EVENTS}/{name}", 2)
-    ax.plot(xy[keep, 0], xy[keep, 1], ".", ms=3)
-    ax.set_title(f"Poincaré section {name}: {int(keep.sum())} points", fontsize=10)
+    formulas = _names(run.path, f"{layout.EVENTS}/{name}", 2)
+    ax.plot(xy[keep, 0], xy[keep, 1], ".", ms=3, label=run.name(f"{int(keep.sum())} points"))
     ax.set_xlabel(formulas[0])
     ax.set_ylabel(formulas[1])
+
+
+def _finish(ax, panel: Panel, span: tuple[float, float], runs: int) -> None:
+    """Title, axes, grid and the legend of a panel drawn from every run."""
+    if panel.section:
+        ax.set_title(f"Poincaré section {panel.origin.rsplit('/', 1)[1]}", fontsize=10)
+    else:
+        ax.set_title(panel.title, fontsize=10)
+        ax.set_xlabel("t (s)")
+        ax.set_xlim(*span)
     ax.grid(alpha=0.3)
+    if len(ax.get_lines()) > 1 or panel.section:
+        ax.legend(fontsize=8, loc="best")
 
 
 def _names(recording: Path, entity: str, count: int) -> list[str]:
