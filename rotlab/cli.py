@@ -186,6 +186,7 @@ def validate(
     from rotlab.batch.runner import collect_configs
     from rotlab.config import load_scenario
     from rotlab.errors import InputError
+    from rotlab.recording.report import body_lines
 
     try:
         configs = collect_configs(paths)
@@ -197,6 +198,8 @@ def validate(
         try:
             scenario = load_scenario(path, overrides)
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
+            for line in body_lines(scenario.body):
+                typer.echo(f"  {line[2:]}")
         except InputError as exc:
             failed += 1
             typer.echo(f"rotlab: error: {exc}", err=True)

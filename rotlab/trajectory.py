@@ -92,6 +92,14 @@ class Trajectory:
     def L_space(self) -> np.ndarray:  # (N, 3) kg·m²/s, space
         return self._quantities[2]
 
+    @property
+    def inertia(self) -> np.ndarray:  # (3, 3) kg·m², about the fixed point, user's body frame
+        return self.scene.scenario.body.tensor()
+
+    @property
+    def center_of_mass(self) -> np.ndarray:  # (3,) m, from the fixed point, user's body frame
+        return np.asarray(self.scene.scenario.body.centre(), dtype=float)
+
     @cached_property
     def gamma(self) -> np.ndarray | None:  # (N, 3) the field's unit "up" (−F̂), body; None without one field direction
         up = self.scene.field_direction

@@ -20,7 +20,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from rotlab import inertia, invariants
+from rotlab import geometry_inertia, inertia, invariants
 from rotlab.config import expressions
 from rotlab.errors import InputError
 from rotlab.method_names import METHOD_NAMES
@@ -142,23 +142,134 @@ class Window(_Model):
         return self
 
 
+class BoxShape(_Model):
+    box: tuple[PositiveReal, PositiveReal, PositiveReal]  # m, edge lengths along x, y, z
+
+
+class CylinderSize(_Model):
+    radius: PositiveReal  # m
+    length: PositiveReal  # m, along z
+
+
+class CylinderShape(_Model):
+    cylinder: CylinderSize
+
+
+class SphereShape(_Model):
+    sphere: PositiveReal  # m, radius (solid)
+
+
+class DiscSize(_Model):
+    radius: PositiveReal  # m, thin, in the x–y plane
+
+
+class DiscShape(_Model):
+    disc: DiscSize
+
+
+class RodShape(_Model):
+    rod: PositiveReal  # m, length along z (thin)
+
+
+class PointShape(_Model):
+    point: Literal[True]  # a point mass
+
+
+_SHAPES = {"box": BoxShape, "cylinder": CylinderShape, "sphere": SphereShape, "disc": DiscShape, "rod": RodShape, "point": PointShape}
+
+
+def _shape(value: object) -> object:
+    """A one-key table naming the shape (``rotlab.geometry_inertia``)."""
+    if isinstance(value, dict) and len(value) == 1 and next(iter(value)) in _SHAPES:
+        return _SHAPES[next(iter(value))].model_validate(value)
+    if isinstance(value, BaseModel):
+        return value
+    raise PydanticCustomError(
+        "rotlab", "must be one of { box = [a, b, c] }, { cylinder = { radius = r, length = L } }, { sphere = r }, "
+        "{ disc = { radius = r } }, { rod = L }, { point = true } (m; found {found})", {"found": repr(value)[:40]})
+
+
+Shape = Annotated[Union[BoxShape, CylinderShape, SphereShape, DiscShape, RodShape, PointShape], BeforeValidator(_shape)]
+
+
+def shape_kind(shape: BaseModel) -> tuple[str, object]:
+    """(kind, size) of a shape model, as ``rotlab.geometry_inertia.central_inertia`` takes them."""
+    kind = next(iter(type(shape).model_fields))
+    size = getattr(shape, kind)
+    return kind, size.model_dump() if isinstance(size, BaseModel) else size
+
+
+class Part(_Model):
+    """One part of a composite body: a uniform shape (or a point mass) with its own axes parallel
+    to the body's, its centre at ``center`` (m, in the body description's frame)."""
+
+    shape: Shape
+    mass: PositiveReal  # kg
+    center: Vec3 = (0.0, 0.0, 0.0)  # m
+
+
 class Body(_Model):
-    """Rigid body.  Inertia about the FIXED POINT, in the body frame (the frame you give it in)."""
+    """Rigid body.  Inertia about the FIXED POINT, in the body frame (the frame you give it in);
+    or its geometry (``shape`` and ``mass``, or ``parts``) and the fixed point ``pivot``, from
+    which rotlab computes both (``rotlab.geometry_inertia``; the body frame: the shape's axes,
+    origin at the pivot)."""
 
     principal_moments: tuple[MomentReal, MomentReal, MomentReal] | None = None  # (A, B, C) kg·m², body axes are principal axes
     inertia_tensor: tuple[Vec3, Vec3, Vec3] | None = None  # kg·m², symmetric positive definite
+    shape: Shape | None = None  # a uniform solid, with ``mass``: its own axes are the body axes
+    parts: list[Part] | None = None  # a composite: each a shape (or point), mass and centre
+    pivot: Vec3 = (0.0, 0.0, 0.0)  # m: the fixed point, from the shape's centre (or in the parts' frame)
     mass: PositiveReal | None = None  # kg
     center_of_mass: Vec3 = (0.0, 0.0, 0.0)  # m, body frame, from the fixed point
     allow_triangle_violation: bool = False  # opt-in for mathematical test problems only
 
+    def geometry(self) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """(inertia about the fixed point (kg·m²), centre of mass from it (m), mass (kg)) of a body
+        given by its geometry; None for one given by its moments."""
+        if self.shape is not None:
+            parts = [(*shape_kind(self.shape), float(self.mass or 0.0), np.zeros(3))]
+        elif self.parts is not None:
+            parts = [(*shape_kind(p.shape), p.mass, np.asarray(p.center, dtype=float)) for p in self.parts]
+        else:
+            return None
+        return geometry_inertia.about_pivot(parts, np.asarray(self.pivot, dtype=float))
+
+    def tensor(self) -> np.ndarray:
+        """The inertia tensor about the fixed point, body frame (kg·m²)."""
+        if self.principal_moments is not None:
+            return np.diag(np.asarray(self.principal_moments, dtype=float))
+        computed = self.geometry()
+        return np.asarray(self.inertia_tensor, dtype=float) if computed is None else computed[0]
+
+    def centre(self) -> tuple[float, float, float]:
+        """The centre of mass from the fixed point, body frame (m)."""
+        computed = self.geometry()
+        return self.center_of_mass if computed is None else tuple(float(x) for x in computed[1])  # type: ignore[return-value]
+
+    def total_mass(self) -> float | None:
+        """The mass (kg; None when not given)."""
+        computed = self.geometry()
+        return self.mass if computed is None else computed[2]
+
     @model_validator(mode="after")
     def _physical(self) -> Body:
-        if (self.principal_moments is None) == (self.inertia_tensor is None):
+        given = [k for k in ("principal_moments", "inertia_tensor", "shape", "parts") if getattr(self, k) is not None]
+        if len(given) != 1:
             raise _invalid(
-                "principal_moments",
-                "give exactly one of principal_moments = [A, B, C] or inertia_tensor = [[...], [...], [...]]",
+                given[1] if given else "principal_moments",
+                "give exactly one of principal_moments = [A, B, C], inertia_tensor = [[...], [...], [...]], "
+                "shape = { box = [a, b, c] } (with mass) or [[body.parts]]",
             )
-        if self.principal_moments is not None:
+        if given[0] in ("shape", "parts"):
+            self._check_geometry(given[0])
+            key = given[0]
+            moments, _ = inertia.principal_axes(self.tensor())
+            if moments[0] <= 0.0:
+                raise _invalid(key, f"the body has no inertia about an axis (principal moments {moments.tolist()}): a rod or "
+                                    "points on one line through the pivot: add a part off that line")
+        elif "pivot" in self.model_fields_set:
+            raise _invalid("pivot", "pivot places the fixed point in a shape or its parts: with moments of inertia, the fixed point is the origin")
+        elif self.principal_moments is not None:
             key = "principal_moments"
             moments = self.principal_moments  # three floats: plain Python (NumPy's overhead on 3 numbers shows in a sweep case)
             if any(m <= 0.0 for m in moments):
@@ -188,6 +299,17 @@ class Body(_Model):
         if self.mass is not None and not self.allow_triangle_violation and any(self.center_of_mass):
             self._check_centre_of_mass()
         return self
+
+    def _check_geometry(self, key: str) -> None:
+        """A geometry gives the mass and the centre of mass: they are not given too."""
+        if key == "shape" and self.mass is None:
+            raise _invalid("mass", "a shape needs its mass: add mass = ... (kg) under [body]")
+        if key == "parts" and self.mass is not None:
+            raise _invalid("mass", "the parts carry their masses: remove body.mass (the total is their sum)")
+        if key == "parts" and not self.parts:
+            raise _invalid("parts", "give at least one part")
+        if "center_of_mass" in self.model_fields_set:
+            raise _invalid("center_of_mass", f"computed from the {key}: remove center_of_mass (the fixed point is pivot)")
 
     def _check_centre_of_mass(self) -> None:
         """The inertia about the centre of mass must be realisable (``rotlab.inertia``)."""
@@ -655,7 +777,7 @@ class Scenario(_Model):
     @model_validator(mode="after")
     def _loads_need_body_data(self) -> Scenario:
         for k, load in enumerate(self.loads):
-            if isinstance(load, Gravity) and self.body.mass is None:
+            if isinstance(load, Gravity) and self.body.total_mass() is None:
                 raise PydanticCustomError(
                     "rotlab", "gravity (loads[{k}]) needs the body's mass: add mass = ... (kg) under [body]", {"key": "body.mass", "k": k}
                 )

@@ -19,10 +19,26 @@ import numpy as np
 from rotlab.core import quaternion as quat
 from rotlab.errors import InputError, RunFailure
 from rotlab.recording import layout, style, visuals
-from rotlab.recording.reader import entity_paths, read_series, read_static
+from rotlab.recording.reader import entity_paths, read_series, read_static, read_text
 
 MAX_FRAMES = 3000
 MESH = (18, 10)  # ellipsoid mesh: longitude × latitude lines
+
+
+def _ellipsoid(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(half sizes, centre, xyzw) of the body's equivalent ellipsoid: as drawn, or for a body given
+    by its geometry (drawn as its shapes) from the recorded scenario (``shapes.equivalent_ellipsoid``)."""
+    try:
+        return tuple(np.asarray(read_static(path, layout.BODY_SHAPE, f"Ellipsoids3D:{c}")[0], dtype=float)  # type: ignore[return-value]
+                     for c in ("half_sizes", "centers", "quaternions"))
+    except KeyError:
+        import json
+
+        from rotlab.config.models import Body
+        from rotlab.recording.shapes import equivalent_ellipsoid
+
+        shape = equivalent_ellipsoid(Body.model_validate(json.loads(read_text(path, layout.SCENARIO))["scenario"]["body"]))
+        return shape.half_sizes, shape.center, np.r_[shape.orientation[1:], shape.orientation[0]]
 
 
 def _at(t_frames: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -89,9 +105,7 @@ def animate(recording: Path, output: Path, fps: float = 20.0, speed: float = 1.0
 
 def _read_scene(path: Path, t: np.ndarray) -> dict:
     """Everything the frames need, read from the recording."""
-    half = np.asarray(read_static(path, layout.BODY_SHAPE, "Ellipsoids3D:half_sizes")[0], dtype=float)
-    center = np.asarray(read_static(path, layout.BODY_SHAPE, "Ellipsoids3D:centers")[0], dtype=float)
-    xyzw = np.asarray(read_static(path, layout.BODY_SHAPE, "Ellipsoids3D:quaternions")[0], dtype=float)
+    half, center, xyzw = _ellipsoid(path)
     axes_length = float(np.max(np.abs(np.asarray(read_static(path, layout.BODY_AXES, "Arrows3D:vectors"), dtype=float))))
     _, omega = read_series(path, layout.OMEGA)
     entities = entity_paths(path)

@@ -24,6 +24,7 @@ import rerun as rr
 from rotlab.core import quaternion as quat
 from rotlab.recording import labels, layout, loads_view, style
 from rotlab.recording.geometry import decimate
+from rotlab.recording.shapes import primitives
 from rotlab.trajectory import Trajectory
 
 DIM = 0.35  # whole paths: this fraction of their colour; the trailing window is drawn bright
@@ -122,13 +123,18 @@ def series_colors(entity: str, names: list[str]) -> list[style.Color] | None:
 def log_static(rec: rr.RecordingStream, traj: Trajectory, views) -> None:
     """The static scene (see module docstring); ``views`` is the writer's display bundle."""
     shape, size, geo = views.shape, views.shape.size, views.geometry
-    rec.log(layout.BODY_SHAPE, rr.Ellipsoids3D(half_sizes=[shape.half_sizes], centers=[shape.center],
-                                               quaternions=[rr.Quaternion(xyzw=xyzw(shape.orientation))],
-                                               colors=[style.BODY], fill_mode="solid"), static=True)
+    drawn = primitives(traj.scene.scenario.body, size)
+    if not drawn:  # a body given by its moments: its equivalent uniform ellipsoid
+        rec.log(layout.BODY_SHAPE, rr.Ellipsoids3D(half_sizes=[shape.half_sizes], centers=[shape.center],
+                                                   quaternions=[rr.Quaternion(xyzw=xyzw(shape.orientation))],
+                                                   colors=[style.BODY], fill_mode="solid"), static=True)
+    for kind, fields in drawn.items():  # a body given by its geometry: as it is
+        archetype = {"box": rr.Boxes3D, "cylinder": rr.Cylinders3D, "ball": rr.Ellipsoids3D}[kind]
+        rec.log(f"{layout.BODY_SHAPE}/{kind}", archetype(**fields, colors=[style.BODY], fill_mode="solid"), static=True)
     rec.log(layout.BODY_AXES, rr.Arrows3D(vectors=np.eye(3) * AXES_LENGTH * size, colors=style.XYZ), static=True)
     texts, colors = label_style(traj)
     rec.log(layout.LABELS_3D, rr.Points3D.from_fields(radii=[0.0], colors=colors, labels=[style.label_3d(s) for s in texts]), static=True)
-    r_c = np.asarray(traj.scene.scenario.body.center_of_mass, dtype=float)
+    r_c = np.asarray(traj.scene.scenario.body.centre(), dtype=float)
     if np.any(r_c != 0.0):
         rec.log(layout.BODY_ARM, rr.LineStrips3D([[np.zeros(3), r_c]], colors=[style.ARM]), static=True)
     rec.log(layout.AXIS_PATH, rr.LineStrips3D([decimate(geo.axis_tips)], colors=[dim(style.AXIS_TRACE)], radii=[0.002 * size]), static=True)

@@ -114,13 +114,13 @@ def _force_arrow(load: cfg.Force, body: cfg.Body) -> Arrow:
 
 
 def _gravity(load: cfg.Gravity, index: int, c: Compiling, names: Any) -> None:
-    mass = c.body.mass or 0.0
-    c.force(c.body_vector(c.body.center_of_mass), mass * np.asarray(load.g, dtype=float))
+    mass = c.body.total_mass() or 0.0
+    c.force(c.body_vector(c.body.centre()), mass * np.asarray(load.g, dtype=float))
 
 
 def _gravity_arrow(load: cfg.Gravity, body: cfg.Body) -> Arrow:
-    mass = body.mass or 0.0
-    return Arrow("force", "mg", "space", "gravity m·g at the centre of mass (space frame)", point=body.center_of_mass,
+    mass = body.total_mass() or 0.0
+    return Arrow("force", "mg", "space", "gravity m·g at the centre of mass (space frame)", point=body.centre(),
                  force=mass * np.asarray(load.g, dtype=float), numbered=False)
 
 
@@ -194,9 +194,7 @@ def _gravity_gradient(load: cfg.GravityGradient, index: int, c: Compiling, names
 
 def user_inertia(body: cfg.Body) -> np.ndarray:
     """The inertia tensor in the user's body frame."""
-    if body.principal_moments is not None:
-        return np.diag(np.asarray(body.principal_moments, dtype=float))
-    return np.asarray(body.inertia_tensor, dtype=float)
+    return body.tensor()
 
 
 _DECLARED = (

@@ -228,7 +228,7 @@ def _principal(body: cfg.Body) -> tuple[np.ndarray, np.ndarray]:
     """(principal moments, axes): columns of ``axes`` are the principal axes in the user's frame."""
     if body.principal_moments is not None:  # the user's axes are the principal axes
         return np.asarray(body.principal_moments, dtype=float), np.eye(3)
-    return inertia.principal_axes(np.asarray(body.inertia_tensor, dtype=float))
+    return inertia.principal_axes(body.tensor())
 
 
 def _build_rigid(scenario: cfg.Scenario, user, user_function: Callable | None = None) -> Rigid:
