@@ -38,6 +38,14 @@ SetOption = Annotated[
 _reported = False  # an error line was already printed (main() adds none)
 
 
+def _hint(scenario, where: str = "") -> None:
+    """Print the scenario's unit-slip hints (``rotlab.config.hints``) to stderr: the run goes on."""
+    from rotlab.config.hints import hints
+
+    for line in hints(scenario):
+        typer.echo(f"rotlab: hint: {where}{line}", err=True)
+
+
 def _fail(exc: Exception) -> None:
     """Print one line to stderr and exit with the error's code (2 bad input, 1 run failure,
     130 interrupted)."""
@@ -145,6 +153,7 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
         if bind != LOOPBACK:
             typer.echo(f"rotlab: --bind {bind}: the run's data server is open to every machine that can reach this one", err=True)
     scenario = api.load(config, method=method, duration=duration, overrides=overrides)
+    _hint(scenario)
     target = output if output is not None or live.any else Path(scenario.output.path or f"{config.stem}.rrd")
     if target is not None:
         check_output_path(target, inputs=(config,))
@@ -200,6 +209,7 @@ def validate(
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
             for line in body_lines(scenario.body):
                 typer.echo(f"  {line[2:]}")
+            _hint(scenario, f"{path}: ")
         except InputError as exc:
             failed += 1
             typer.echo(f"rotlab: error: {exc}", err=True)

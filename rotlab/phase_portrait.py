@@ -35,6 +35,8 @@ from rotlab.scene.scene import LAGRANGE, Scene
 
 POLHODE_LEVELS = 4  # polhodes drawn on each side of the separatrix
 POLHODE_POINTS = 181  # points on each curve
+VERTICAL = 1e-9  # |cos θ| within this of 1: the axis is vertical (ψ undefined)
+DOUBLE_ROOT = 1e-7  # roots of the cubic closer than this are one double root (~√ε of rounding splits it)
 
 
 def polhodes(moments: np.ndarray, L0: float, levels: int = POLHODE_LEVELS) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -87,10 +89,14 @@ class TopReduction:
         return (self.p_psi - self.c_moment * self.spin * np.cos(theta)) ** 2 / (2.0 * self.a_moment * np.sin(theta) ** 2) + self.k * np.cos(theta)
 
     def cubic_roots(self) -> np.ndarray:
-        """The three roots of f(u), ascending (real parts)."""
+        """The three roots of f(u), ascending (real parts); a double root (a steady precession, a
+        sleeping top), which rounding splits into two √ε apart, is returned twice."""
         A, b = self.a_moment, self.c_moment * self.spin
         coefficients = [2.0 * A * self.k, -(2.0 * A * self.energy + b * b), 2.0 * (self.p_psi * b - A * self.k), 2.0 * A * self.energy - self.p_psi**2]
-        return np.sort(np.real(np.roots(coefficients)))
+        roots = np.sort(np.real(np.roots(coefficients)))
+        if roots[1] - roots[0] < DOUBLE_ROOT:
+            roots[0] = roots[1] = 0.5 * (roots[0] + roots[1])
+        return roots
 
     def turning_points(self) -> tuple[float, float]:
         """(θ₁, θ₂) radians, θ₁ ≥ θ₂: where θ̇ = 0."""
@@ -105,8 +111,11 @@ class TopReduction:
     def mean_precession_rate(self) -> float:
         """ψ̇ averaged over a nutation period (rad/s): (2/T) ∫ (p_ψ − Cω₃u)/(1 − u²) du/√f(u) over
         [u₁, u₂] (ψ̇ = (p_ψ − Cω₃ u)/(A(1 − u²)), dt = A du/√f), with u = u₁ + (u₂ − u₁) sin²s removing
-        the endpoints' square-root singularities: du/√f = 2 ds / √(2Ak (u₃ − u))."""
+        the endpoints' square-root singularities: du/√f = 2 ds / √(2Ak (u₃ − u)).  NaN when the axis
+        reaches the vertical (|u| = 1: ψ is not defined there, a sleeping top)."""
         u1, u2, u3 = self.cubic_roots()
+        if max(abs(u1), abs(u2)) > 1.0 - VERTICAL:
+            return math.nan
         b, A = self.c_moment * self.spin, self.a_moment
 
         def integrand(s: float) -> float:

@@ -16,8 +16,8 @@ from typing import Any, Mapping, Sequence
 
 from pydantic import BaseModel, ValidationError
 
-from rotlab.config.models import LOAD_MODELS, Scenario
-from rotlab.config.paths import model_defaults, set_at
+from rotlab.config.models import LOAD_MODELS, ONE_QUANTITY, Scenario
+from rotlab.config.paths import drop_siblings, model_defaults, set_at
 from rotlab.errors import InputError
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -151,6 +151,10 @@ def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str
 
     for path, value in overrides.items():
         set_at(merged, path, value, path, model_defaults(file_scenario))
+        last = path.rsplit(".", 1)[-1]
+        for group in ONE_QUANTITY:  # a value given another way replaces the file's (omega_rpm for omega, …)
+            if last in group:
+                drop_siblings(merged, path, group, path)
     if duration is not None:
         time = merged["time"] = dict(merged["time"]) if isinstance(merged.get("time"), dict) else {}
         start = time.get("start", 0.0)

@@ -22,6 +22,7 @@ from pydantic_core import PydanticCustomError
 
 from rotlab import geometry_inertia, inertia, invariants
 from rotlab.config import expressions
+from rotlab.core import quaternion as quat
 from rotlab.errors import InputError
 from rotlab.method_names import METHOD_NAMES
 
@@ -325,9 +326,59 @@ class Body(_Model):
             )
 
 
-class Initial(_Model):
-    """Initial state.  ω in BODY components; orientation maps body → space (default: identity)."""
+# keys that give one quantity (in several units, or several ways): a --set of one replaces the
+# file's others (``loader``); the model holds one of each group
+ONE_QUANTITY = ({"omega", "omega_rpm", "omega_deg"},
+                {"quaternion", "axis_angle", "axis_angle_deg", "euler_313", "euler_313_deg"},
+                {"target", "target_euler_313_deg", "target_axis_angle_deg"})
+RPM = 2.0 * math.pi / 60.0  # rad/s per revolution per minute
+DEGREE = math.pi / 180.0  # rad per degree
 
+
+def _three_numbers(key: str, value: object) -> list[float]:
+    if not (isinstance(value, (list, tuple)) and len(value) == 3):
+        raise _invalid(key, f"must be three numbers [x, y, z] (found {repr(value)[:40]})")
+    out = []
+    for k, v in enumerate(value):
+        try:
+            out.append(float(_real(v)))
+        except PydanticCustomError as exc:
+            raise _invalid(f"{key}.{k}", exc.message()) from None
+    return out
+
+
+def _in_other_units(data: object, conversions: dict[str, tuple[str, Any]]) -> object:
+    """A table's keys given in other units (``omega_rpm`` …), replaced before validation by the
+    key the model holds, converted (``conversions``: other key → (own key, convert(three
+    numbers))): the scenario then holds one value, in SI units, whichever way it was written."""
+    if not isinstance(data, dict):
+        return data
+    out = dict(data)
+    for other, (own, convert) in conversions.items():
+        if other not in out:
+            continue
+        if own in out:
+            raise _invalid(other, f"give {own} or {other}, not both")
+        out[own] = convert(_three_numbers(other, out.pop(other)))
+    return out
+
+
+class Initial(_Model):
+    """Initial state.  ω in BODY components; orientation maps body → space (default: identity).
+    ``omega_rpm`` (rev/min) or ``omega_deg`` (deg/s) may give ω, ``axis_angle_deg`` the rotation
+    vector in degrees: each is stored converted, as ``omega`` and ``axis_angle``."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _units(cls, data: object) -> object:
+        return _in_other_units(data, {"omega_rpm": ("omega", lambda v: [x * RPM for x in v]),
+                                      "omega_deg": ("omega", lambda v: [x * DEGREE for x in v]),
+                                      "axis_angle_deg": ("axis_angle", lambda v: [x * DEGREE for x in v])})
+
+    # other units, stored converted (the model never holds them: ``_in_other_units``); in the JSON Schema for editors
+    omega_rpm: Vec3 | None = None  # rev/min, body frame
+    omega_deg: Vec3 | None = None  # deg/s, body frame
+    axis_angle_deg: Vec3 | None = None  # rotation vector, degrees
     omega: Vec3 = (0.0, 0.0, 0.0)  # rad/s, body frame
     quaternion: Vec4 | None = None  # scalar first (q0, q1, q2, q3)
     axis_angle: Vec3 | None = None  # rotation vector: axis × angle (rad), space = body at angle 0
@@ -476,10 +527,20 @@ class PDControl(_Model):
 
     type: Literal["pd_control"]
     target: Vec4 = (1.0, 0.0, 0.0, 0.0)  # body → space, scalar first
+    target_euler_313_deg: Vec3 | None = None  # or the target as 3-1-3 angles (ψ, θ, φ), degrees: stored as ``target``
+    target_axis_angle_deg: Vec3 | None = None  # or as a rotation vector, degrees: stored as ``target``
     kp: NonNegativeReal  # N·m (per unit of δ_v)
     kd: NonNegativeReal  # N·m·s
     max_torque: PositiveReal | None = None  # N·m per component
     window: Window | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _units(cls, data: object) -> object:
+        return _in_other_units(data, {
+            "target_euler_313_deg": ("target", lambda v: quat.from_euler_313(*(x * DEGREE for x in v)).tolist()),
+            "target_axis_angle_deg": ("target", lambda v: (quat.from_axis_angle(np.asarray(v), DEGREE * float(np.linalg.norm(v)))
+                                                           if any(v) else np.array([1.0, 0.0, 0.0, 0.0])).tolist())})
 
     @model_validator(mode="after")
     def _target(self) -> PDControl:

@@ -84,6 +84,17 @@ def set_at(data: dict[str, Any], path: str, value: Any, where: str, defaults: De
     node[last] = value
 
 
+def drop_siblings(data: dict[str, Any], path: str, siblings: set[str], where: str) -> None:
+    """Remove the keys ``siblings`` beside the one at ``path`` (its table already copied by ``set_at``)."""
+    parts = parse_key_path(path, where)
+    node: Any = data
+    for part in parts[:-1]:
+        node = node[part]
+    if isinstance(node, dict):
+        for key in siblings - {parts[-1]}:
+            node.pop(key, None)
+
+
 def model_defaults(model: Any) -> Defaults:
     """``defaults`` for ``set_at`` reading a validated scenario (or any pydantic model)."""
 

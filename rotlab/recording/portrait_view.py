@@ -89,9 +89,13 @@ def top_report(scene: Scene) -> list[str]:
     return ["", "## The top's motion in θ (from its integrals)", "", "| quantity | exact | fast top |", "|---|---|---|",
             f"| turning points θ₁, θ₂ | {theta1:.6g}°, {theta2:.6g}° | – |",
             f"| nutation frequency | {2.0 * math.pi / period:.6g} rad/s (period {period:.6g} s) | C ω₃ / A = {top.fast_nutation_frequency:.6g} rad/s |",
-            f"| mean precession rate | {top.mean_precession_rate():.6g} rad/s | m g l / (C ω₃) = {top.fast_precession_rate:.6g} rad/s |",
+            f"| mean precession rate | {_or_undefined(top.mean_precession_rate(), 'rad/s')} | m g l / (C ω₃) = {top.fast_precession_rate:.6g} rad/s |",
             "", f"U(θ) = (p_ψ − C ω₃ cos θ)² / (2 A sin² θ) + m g l cos θ with p_ψ = {top.p_psi:.6g} kg·m²/s, ω₃ = {top.spin:.6g} rad/s; "
             f"E′ = {top.energy:.6g} J. The plot \"Effective potential\" shows U(θ(t)) under E′: the top turns where they meet."]
+
+
+def _or_undefined(value: float, unit: str) -> str:
+    return f"{value:.6g} {unit}" if math.isfinite(value) else "undefined (the axis reaches the vertical)"
 
 
 POLHODE_NOTE = (f"L in the body frame on its sphere, of radius L₀ = the run's angular momentum; {POLHODE_LEVELS} polhodes around each stable axis "
