@@ -33,6 +33,9 @@ EXAMPLES = {  # one load of each kind, strong enough to move ω over the run
     "pd_control": {"type": "pd_control", "kp": 2.0, "kd": 0.3},  # target: the attitude halfway (``_example``)
     "gravity_gradient": {"type": "gravity_gradient", "orbit_rate": 2.0},
     "quadratic_drag": {"type": "quadratic_drag", "coefficient": 0.05},
+    # Earth's field is ~3e-5 T: a field of 1 T (the model's B₀) and strong torquers move ω within the short run
+    "magnetic_dipole": {"type": "magnetic_dipole", "dipole": [0.5, -0.3, 0.4], "field": 1.0, "altitude": 1e6, "inclination_deg": 60.0},
+    "bdot_detumbling": {"type": "bdot_detumbling", "gain": 2.0, "max_dipole": 0.6, "field": 1.0, "altitude": 1e6},
 }
 TIME = {"end": 0.5, "samples": 11}
 

@@ -44,9 +44,10 @@ def check_constant_name(name: str) -> None:
         raise FormulaError(0, f"constant name '{name}' is taken by a variable, function or built-in constant: rename it")
 
 
-def parse_formula(text: str, constants: dict[str, float]) -> tuple[Program, int]:
+def parse_formula(text: str, constants: dict[str, float], max_nodes: int = MAX_NODES) -> tuple[Program, int]:
     """(postfix program, stack depth it needs) of ``text``; ``FormulaError`` when it is not
-    in the grammar (module docstring)."""
+    in the grammar (module docstring).  ``max_nodes``: a load kind's own formulas (not a
+    user's) may be longer."""
     if not isinstance(text, str):
         raise FormulaError(0, f"must be a formula in a string, found {type(text).__name__}")
     if len(text) > MAX_LENGTH:
@@ -59,8 +60,8 @@ def parse_formula(text: str, constants: dict[str, float]) -> tuple[Program, int]
         raise FormulaError(exc.offset or 0, f"syntax error ({exc.msg})") from None
     except (RecursionError, MemoryError, ValueError):
         raise FormulaError(0, f"formula nested too deeply (limit {MAX_DEPTH} levels)") from None
-    if sum(1 for _ in ast.walk(tree)) > MAX_NODES:
-        raise FormulaError(0, f"formula has more than {MAX_NODES} terms: split it with named constants")
+    if sum(1 for _ in ast.walk(tree)) > max_nodes:
+        raise FormulaError(0, f"formula has more than {max_nodes} terms: split it with named constants")
     code: Program = []
     depth = _emit(tree.body, {**BUILTIN_CONSTANTS, **constants}, code, 0)
     return code, depth

@@ -576,7 +576,37 @@ class QuadraticDrag(_Model):
     window: Window | None = None
 
 
-LOAD_KINDS = (Gravity, Torque, Force, HarmonicTorque, TorqueTable, Damping, Expression, PDControl, GravityGradient, QuadraticDrag)
+class _Orbit(_Model):
+    """A circular orbit in Earth's tilted-dipole field (``rotlab.scene.geomagnetic``)."""
+
+    altitude: PositiveReal = 500e3  # m
+    inclination_deg: Real = 51.6  # degrees
+    tilt_deg: Real = 11.5  # degrees: the dipole's tilt from Earth's axis
+    field: PositiveReal = 3.12e-5  # T: the dipole's field on the surface at the magnetic equator
+
+
+class MagneticDipole(_Orbit):
+    """A constant magnetic dipole m fixed in the body (residual magnetism, or a torquer held on):
+    M = m × B, B Earth's field along the orbit in body components."""
+
+    type: Literal["magnetic_dipole"]
+    dipole: Vec3  # A·m², body frame
+    window: Window | None = None
+
+
+class BDotDetumbling(_Orbit):
+    """Magnetorquers along the body axes driven by the B-dot law m = −k dB/dt, with the rate of B
+    seen in the body taken as −ω × B (the body's tumbling dominates the orbit's rate): m = k ω × B,
+    each component clipped to ±max_dipole; M = m × B.  M·ω = −m·(ω × B) ≤ 0: it only takes energy out."""
+
+    type: Literal["bdot_detumbling"]
+    gain: PositiveReal  # k, A·m² per (rad/s · T)
+    max_dipole: PositiveReal  # A·m² per torquer (body axis)
+    window: Window | None = None
+
+
+LOAD_KINDS = (Gravity, Torque, Force, HarmonicTorque, TorqueTable, Damping, Expression, PDControl, GravityGradient, QuadraticDrag,
+              MagneticDipole, BDotDetumbling)
 Load = Annotated[Union[LOAD_KINDS], Field(discriminator="type")]  # type: ignore[valid-type]
 LOAD_MODELS: dict[str, type[_Model]] = {
     m.model_fields["type"].annotation.__args__[0]: m  # type: ignore[union-attr]

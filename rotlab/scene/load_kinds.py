@@ -29,6 +29,7 @@ from typing import Any, Literal
 import numpy as np
 
 from rotlab.config import models as cfg
+from rotlab.scene import geomagnetic
 
 BODY, SPACE = 0.0, 1.0  # a load's frame, as the kernels read it
 
@@ -192,6 +193,48 @@ def _gravity_gradient(load: cfg.GravityGradient, index: int, c: Compiling, names
                         names=names)
 
 
+MAGNETIC_FORMULA_NODES = 1200  # the B-dot torque written out (B six times per component): longer than a user's formula may be
+
+
+def _magnetic_field(load: cfg.MagneticDipole | cfg.BDotDetumbling) -> tuple[list[str], dict[str, float], dict[str, object]]:
+    """(B's body components as formulas, their constants, the row's γ: r̂(t) in body components)
+    of ``rotlab.scene.geomagnetic``'s field: B = b (3 (m̂·r̂) γ − Rᵀ m̂), m̂·r̂ = c1 cos(n t) + c2 sin(n t),
+    Rᵀ m̂ from Λ (q, the user's body frame)."""
+    n = geomagnetic.orbit_rate(load.altitude)
+    u, v = geomagnetic.orbit_plane(load.inclination_deg)
+    m_hat = geomagnetic.dipole_axis(load.tilt_deg)
+    constants = {"b": geomagnetic.field_strength(load.altitude, load.field), "n": n, "c1": float(m_hat @ u), "c2": float(m_hat @ v),
+                 "m0": float(m_hat[0]), "m1": float(m_hat[1]), "m2": float(m_hat[2])}
+    rotation = [["1 - 2*(q[2]**2 + q[3]**2)", "2*(q[1]*q[2] - q[0]*q[3])", "2*(q[1]*q[3] + q[0]*q[2])"],  # R(Λ), body → space
+                ["2*(q[1]*q[2] + q[0]*q[3])", "1 - 2*(q[1]**2 + q[3]**2)", "2*(q[2]*q[3] - q[0]*q[1])"],
+                ["2*(q[1]*q[3] - q[0]*q[2])", "2*(q[2]*q[3] + q[0]*q[1])", "1 - 2*(q[1]**2 + q[2]**2)"]]
+    m_body = [" + ".join(f"({rotation[j][i]})*m{j}" for j in range(3)) for i in range(3)]
+    field = [f"(b*(3*(c1*cos(n*t) + c2*sin(n*t))*gamma[{i}] - ({m_body[i]})))" for i in range(3)]
+    return field, constants, {"up": u, "up2": v, "rate": n}
+
+
+def _cross(a: list[str], b: list[str]) -> list[str]:
+    """The components of a × b, as formulas."""
+    return [f"({a[(i + 1) % 3]}*{b[(i + 2) % 3]} - {a[(i + 2) % 3]}*{b[(i + 1) % 3]})" for i in range(3)]
+
+
+def _magnetic_dipole(load: cfg.MagneticDipole, index: int, c: Compiling, names: Any) -> None:
+    """M = m × B (body frame)."""
+    field, constants, gamma = _magnetic_field(load)
+    constants.update({f"d{i}": float(load.dipole[i]) for i in range(3)})
+    texts = _cross(["d0", "d1", "d2"], field)
+    c.programs.formulas(texts, constants, BODY, window_of(load.window), max_nodes=MAGNETIC_FORMULA_NODES, names=names, **gamma)
+
+
+def _bdot(load: cfg.BDotDetumbling, index: int, c: Compiling, names: Any) -> None:
+    """m = sat(k ω × B) per body axis, M = m × B."""
+    field, constants, gamma = _magnetic_field(load)
+    constants.update({"k": load.gain, "limit": load.max_dipole})
+    dipole = [f"max(-limit, min(limit, k*{x}))" for x in _cross(["omega[0]", "omega[1]", "omega[2]"], field)]
+    c.programs.formulas(_cross(dipole, field), constants, BODY, window_of(load.window), max_nodes=MAGNETIC_FORMULA_NODES, names=names,
+                        **gamma)
+
+
 def user_inertia(body: cfg.Body) -> np.ndarray:
     """The inertia tensor in the user's body frame."""
     return body.tensor()
@@ -208,6 +251,8 @@ _DECLARED = (
     LoadKind(cfg.PDControl, _pd_control, _torque_arrow),
     LoadKind(cfg.QuadraticDrag, _quadratic_drag, _torque_arrow),
     LoadKind(cfg.GravityGradient, _gravity_gradient, _torque_arrow),
+    LoadKind(cfg.MagneticDipole, _magnetic_dipole, _torque_arrow),
+    LoadKind(cfg.BDotDetumbling, _bdot, _torque_arrow),
 )
 KINDS: dict[type, LoadKind] = {kind.model: kind for kind in _DECLARED}
 

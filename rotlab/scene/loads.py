@@ -145,8 +145,9 @@ class ProgramBuilder:
         self.programs.append([program for program, _ in programs])
         self.names.append(names)
 
-    def formulas(self, texts: list[str], constants: dict[str, float], frame: float, window: tuple[float, float], **kw) -> None:
-        self.add([formulas.parse_formula(text, constants) for text in texts], frame, window, **kw)
+    def formulas(self, texts: list[str], constants: dict[str, float], frame: float, window: tuple[float, float],
+                 max_nodes: int = formulas.MAX_NODES, **kw) -> None:
+        self.add([formulas.parse_formula(text, constants, max_nodes) for text in texts], frame, window, **kw)
 
     def build(self, axes: np.ndarray, moments: np.ndarray) -> Expressions | None:
         if not self.rows:
