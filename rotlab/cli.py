@@ -27,7 +27,7 @@ app = typer.Typer(
     rich_markup_mode=None,  # help is plain text: "[checks]" and "[sweep]" are TOML tables, not markup
 )
 
-TEMPLATE_KINDS = ("euler", "lagrange", "general")
+TEMPLATE_KINDS = ("euler", "lagrange", "general", "box", "satellite")
 DEFAULT_VIEWER_URL = "rerun+http://127.0.0.1:9876/proxy"
 TemplateKind = Literal[TEMPLATE_KINDS]  # type: ignore[valid-type]
 MethodName = Literal[METHOD_NAMES]  # type: ignore[valid-type]

@@ -41,7 +41,7 @@ def test_validate_many(cli):
     assert result.stdout.count(": ok") == len(list(CONFIGS.glob("*.toml")))
 
 
-@pytest.mark.parametrize("kind", ["euler", "lagrange", "general"])
+@pytest.mark.parametrize("kind", ["euler", "lagrange", "general", "box", "satellite"])
 def test_new_prints_a_valid_commented_template(cli, tmp_path, kind):
     result = cli("new", kind)
     assert result.exit_code == 0
@@ -53,7 +53,7 @@ def test_new_prints_a_valid_commented_template(cli, tmp_path, kind):
 
 def test_new_unknown_kind(cli):
     result = cli("new", "kovalevskaya")
-    assert result.exit_code == 2 and "'euler', 'lagrange', 'general'" in result.stderr
+    assert result.exit_code == 2 and "'euler', 'lagrange', 'general', 'box', 'satellite'" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
 
 
