@@ -67,7 +67,29 @@ def main() -> None:
         plain, never, flip, section = (float(np.median(seconds[k])) for k in ("plain", "never", "flip", "section"))
         print(f"| {method} | {steps:,} | {plain * 1e3:.2f} | {plain / steps * 1e9:.0f} | {samples / steps:.2g} | {(never - plain) / samples * 1e9:.0f} "
               f"| {100 * (never - plain) / plain:+.1f} % | {(flip - never) / count * 1e6:.0f} | {100 * (section - plain) / plain:+.1f} % |")
+    print()
+    check_alone(max(9, args.repeats))
     lyapunov_cost(max(3, args.repeats // 2))
+
+
+def check_alone(repeats: int) -> None:
+    """The check by itself (``EventWatch.rows`` on the 40,001 samples of a run, no stepping): a
+    formula of ω only (Λ, γ and L not formed) and one that reads γ."""
+    from rotlab.events import EventWatch, compile_events
+
+    for when in ("omega[1] + 1000", "gamma[2] + 1000"):
+        scene = build_scene(rotlab.load(CONFIGS / "dzhanibekov.toml", overrides={"time.end": 200.0,
+                                                                                  "events": [{"name": "never", "when": when}]}))
+        traj = run_scene(scene)
+        states, t = np.ascontiguousarray(traj._state), traj.t
+        compiled = compile_events(scene)
+        seconds = []
+        for _ in range(repeats):
+            watch = EventWatch(compiled, lambda: None)
+            started = time.perf_counter()
+            watch.rows(0, t, states)
+            seconds.append(time.perf_counter() - started)
+        print(f"check alone, when = \"{when}\": {np.median(seconds) / t.shape[0] * 1e9:.1f} ns a sample (median of {repeats})")
 
 
 def lyapunov_cost(repeats: int) -> None:

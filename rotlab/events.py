@@ -34,6 +34,7 @@ from scipy.optimize import brentq
 
 from rotlab.core.event_values import FALLING, RISING, crossings, first_not_finite, formula_values
 from rotlab.core import quaternion as quat
+from rotlab.core import opcodes
 from rotlab.core.quaternion import from_matrix
 from rotlab.core.torques import EX_COLUMNS, EX_OFF, EX_UP
 from rotlab.methods.stepping import Stop
@@ -45,6 +46,7 @@ if TYPE_CHECKING:
     from rotlab.scene.scene import Scene
 
 TIME_RTOL = 1e-14  # Brent's tolerance on the event time, relative to |t| (module docstring)
+RATE_INPUTS = opcodes.INPUTS["omega"][0] + opcodes.INPUTS["omega"][1]  # t and ω: the inputs before Λ
 DIRECTIONS = {"rising": RISING, "falling": FALLING, "both": RISING | FALLING}
 COMPILED_KEPT = 64  # compiled event sets kept (``compile_events``)
 _COMPILED: dict[tuple, CompiledEvents] = {}
@@ -88,6 +90,9 @@ class CompiledEvents:
             up = np.asarray(event.up, dtype=float)
             self.rows[k, EX_UP:EX_UP + 3] = up / np.linalg.norm(up)
             self.rows[k, EX_OFF] = np.inf
+        # the formulas of each event that read only t and ω (VAR inputs 0–3: ``core.opcodes.INPUTS``)
+        self.rates_only = [[all(arg < RATE_INPUTS for opcode, arg in program if opcode == opcodes.VAR) for program in formulas_]
+                           for formulas_ in programs]
         self.axes = np.ascontiguousarray(scene.axes, dtype=float)
         self.axes_q = from_matrix(self.axes)
         self.moments = np.asarray(scene.moments, dtype=float)
@@ -97,7 +102,7 @@ class CompiledEvents:
         ``states`` (principal frame) at times ``t``."""
         out = np.empty(t.shape[0])
         formula_values(self.fn, self.rows, k, component, np.ascontiguousarray(t, dtype=float),
-                       np.ascontiguousarray(states), self.axes, self.axes_q, self.moments, out)
+                       np.ascontiguousarray(states), self.axes, self.axes_q, self.moments, self.rates_only[k][component], out)
         return out
 
 

@@ -9,15 +9,22 @@ import math
 from numba import njit
 
 from rotlab.core.expressions import call_formulas
-from rotlab.core.torques import expression_inputs
+from rotlab.core.state import P0
+from rotlab.core.torques import _to_user, expression_inputs
 
 
 @njit(cache=True)
-def formula_values(fn, rows, k, component, t, states, axes, axes_q, moments, out):
+def formula_values(fn, rows, k, component, t, states, axes, axes_q, moments, rates_only, out):
     """out[i] = formula ``component`` of event ``k`` at (t[i], states[i]) (principal frame);
-    ``rows[k]`` holds the event's ``up`` direction as an expression load's row does."""
+    ``rows[k]`` holds the event's ``up`` direction as an expression load's row does.
+    ``rates_only``: the formula reads only t and ω, so Λ, γ and L are not formed (0 in their places)."""
     for i in range(t.shape[0]):
-        x = expression_inputs(t[i], states[i], rows, k, axes, axes_q, moments)
+        if rates_only:
+            y = states[i]
+            w0, w1, w2 = _to_user(axes, y[P0], y[P0 + 1], y[P0 + 2])
+            x = (t[i], w0, w1, w2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        else:
+            x = expression_inputs(t[i], states[i], rows, k, axes, axes_q, moments)
         out[i] = call_formulas(fn, k, component, x)
 
 
