@@ -191,3 +191,7 @@ def test_a_sweep_reports_each_cases_events(cli, write, tmp_path):
         assert int(row["event_flip_count"]) == flips.count
         assert float(row["event_flip_first_s"]) == pytest.approx(flips.t[0], rel=1e-12)
         assert float(row["event_flip_interval_s"]) == pytest.approx(flips.intervals().mean(), rel=1e-12)
+    from rotlab.recording.reader import entity_paths
+
+    drawn = entity_paths(tmp_path / "out" / "sweep_sweep.rrd")  # each event column drawn against each parameter
+    assert {"/results/initial_omega_0/event_flip_first_s", "/results/initial_omega_0/event_flip_count"} <= drawn

@@ -39,6 +39,21 @@ OBSERVABLES = {  # table column → (plot title, transform of the value)
 }
 
 
+EVENT_TITLES = {"count": "{name}: occurrences", "first_s": "{name}: first time (s)", "interval_s": "{name}: mean interval (s)"}
+
+
+def scatter_columns(results: Results) -> dict[str, tuple[str, str | None]]:
+    """The columns drawn against each parameter: ``OBSERVABLES`` and each event's
+    (``rotlab.events.observables``), column → (plot title, transform)."""
+    out = dict(OBSERVABLES)
+    for column in results.observables:
+        if column.startswith("event_"):
+            for what, title in EVENT_TITLES.items():
+                if column.endswith("_" + what):
+                    out[column] = (title.format(name=column[len("event_"):-len(what) - 1]), None)
+    return out
+
+
 def parameter_columns(results: Results) -> list[str]:
     """The swept parameter columns that vary (finite values)."""
     out = []
@@ -83,7 +98,7 @@ def plots(results: Results, rows: np.ndarray, colors: list[tuple[int, int, int]]
     for param in parameter_columns(results):
         x = results.column(param)[rows]
         views = {}
-        for column, (_, transform) in OBSERVABLES.items():
+        for column, (_, transform) in scatter_columns(results).items():
             if column not in results.header:
                 continue
             y = results.column(column)[rows].astype(float)
@@ -116,11 +131,12 @@ def blueprint(results: Results, shown: list[CaseOutcome], scatters: dict[str, di
         row_shares=[3, 2],
     )
     result_tabs = []
+    titles = scatter_columns(results)
     for param, views in scatters.items():
         if not views:
             continue
         result_tabs.append(rrb.Grid(
-            *[rrb.Spatial2DView(origin=f"/results/{slug(param)}/{column}", name=f"{OBSERVABLES[column][0]} vs {param}",
+            *[rrb.Spatial2DView(origin=f"/results/{slug(param)}/{column}", name=f"{titles[column][0]} vs {param}",
                                 visual_bounds=rrb.VisualBounds2D(x_range=s.bounds[0], y_range=s.bounds[1]))
               for column, s in views.items()],
             grid_columns=2, name=f"vs {param}",
