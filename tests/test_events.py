@@ -194,4 +194,4 @@ def test_a_sweep_reports_each_cases_events(cli, write, tmp_path):
     from rotlab.recording.reader import entity_paths
 
     drawn = entity_paths(tmp_path / "out" / "sweep_sweep.rrd")  # each event column drawn against each parameter
-    assert {"/results/initial_omega_0/event_flip_first_s", "/results/initial_omega_0/event_flip_count"} <= drawn
+    assert {"/results/initial_omega_0/event_flip_first_s/cases", "/results/initial_omega_0/event_flip_count/cases"} <= drawn

@@ -3,7 +3,7 @@
 Entities
     /compare/omega_x|omega_y|omega_z/case_<k>   ω body components of case k (rad/s)
     /compare/energy_drift/case_<k>               log10 |relative drift of T + V − W|
-    /results/<parameter>/<observable>            scatter: observable of each case against the
+    /results/<parameter>/<observable>            scatter: observable (``scatter_columns``: events' too) of each case against the
                                                  swept parameter (see ``rotlab.recording.scatter``)
     /sweep                                       the results table (Markdown)
 Bounded whatever the number of cases: series of ``COMPARED_CASES`` cases spread evenly over the
