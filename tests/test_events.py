@@ -131,6 +131,10 @@ def test_a_formula_that_is_not_finite_stops_the_run_naming_the_event():
         flip_run("rk4", events=[{"name": "bad", "when": "log(omega[1])"}])
     kept = caught.value.trajectory
     assert np.all(kept.omega[:, 1] > 0.0) and kept.t[-1] < 1.68  # the valid samples, up to the first NaN
+    for method in ("rk4", "dop853", "exact"):  # not finite at t0 itself: the run ends there, without a step
+        with pytest.raises(RunFailure, match=r"event 'bad': when = \"log\(-omega\[1\]\)\" is not finite at t = 0 s") as first:
+            flip_run(method, events=[{"name": "bad", "when": "log(-omega[1])"}])
+        assert first.value.trajectory.t.shape[0] == 1 and first.value.trajectory.stats.steps == 0
     with pytest.raises(RunFailure, match=r"event 'r': record\[0\] = \"sqrt\(omega\[0\]\)\" is not finite"):
         flip_run("dop853", events=[{"name": "r", "when": "omega[1]", "record": ["sqrt(omega[0])"]}])
 

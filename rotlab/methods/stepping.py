@@ -165,10 +165,12 @@ def run_chunks(
 
     faults.clear()
     try:
-        _watched(control, 0, t[:1], out[:1])
+        first = _watched(control, 0, t[:1], out[:1])
+        if first is not None:  # the watch refuses the initial state itself (an event formula not finite there)
+            failure = first.failure
         if streamed:  # the first row can flush (a kernel that took > FLUSH_SECONDS to load): Ctrl-C there too
             control.consumer.rows(0, t[:1], out[:1])
-        while i < n:
+        while i < n and failure is None:
             budget = min(CHUNK_STEPS, max_steps - steps)
             if budget <= 0:
                 failure = exhausted()
@@ -260,8 +262,8 @@ def evaluate_in_windows(t: np.ndarray, evaluate: Callable[[np.ndarray], np.ndarr
             state = evaluate(t[i:stop])
             valid = _valid_rows(state, state.shape[0])
             watched = _watched(control, i, t[i : i + valid], state[:valid])
-            if watched is not None:
-                valid, failure = watched.keep, watched.failure
+            if watched is not None:  # (the initial state is kept, as a stepping run keeps it)
+                valid, failure = max(watched.keep, 1 if i == 0 else 0), watched.failure
             if control.consumer is not None and valid:
                 control.consumer.rows(i, t[i : i + valid], state[:valid])
             i += valid
