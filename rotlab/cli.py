@@ -462,9 +462,9 @@ def plot(
         if size is not None:
             try:
                 inches = tuple(float(x) for x in size.lower().split("x"))
-                assert len(inches) == 2 and all(0 < x <= 100 for x in inches)
+                assert len(inches) == 2 and all(1 <= x <= 100 for x in inches)
             except (ValueError, AssertionError):
-                raise InputError("--size", f"'{size}': give WIDTHxHEIGHT in inches, e.g. 8x10") from None
+                raise InputError("--size", f"'{size}': give WIDTHxHEIGHT in inches, each 1 to 100, e.g. 8x10") from None
         keys = [k.strip() for k in panels.split(",") if k.strip()] if panels else None
         path, drawn = draw(recordings, output, keys, start, end, inches)
     except (InputError, RunFailure) as exc:

@@ -19,6 +19,7 @@ another frequency, which grows linearly, not exponentially, so the maximal expon
 for an integrable motion λ(T) decays as ~ln(Ω T)/T (the tests hold it to that).
 The closed form (``exact``) starts only from the scene's initial state, so a scenario that runs
 ``exact`` is measured with ``taylor`` (or ``dop853``) at its tolerances instead (``method`` says).
+A scenario's ``[[events]]`` are not evaluated (a terminal event does not end the measurement).
 """
 
 from __future__ import annotations
@@ -59,10 +60,11 @@ class Lyapunov:
         n = self.t.shape[0]
         lines = [f"maximal Lyapunov exponent: {self.exponent:.6g} 1/s over {self.t[-1] - self.t[0] + self.interval:.6g} s",
                  f"method: {self.method}; renormalised every {self.interval:.3g} s; norm |δΛ|² + |δω|²/Ω², Ω = {self.rate_scale:.4g} 1/s",
-                 f"settled: λ varied by {self.spread:.3g} 1/s over the second half of the run"]
+                 f"convergence: λ varied by {self.spread:.3g} 1/s over the second half of the run"
+                 + (" — not settled (more than a fifth of λ): lengthen --duration" if self.spread > 0.2 * abs(self.exponent) else "")]
         if self.exponent > 0.0:
             lines.append(f"Lyapunov time 1/λ: {1.0 / self.exponent:.4g} s")
-        lines.append("convergence: " + ", ".join(f"λ({self.t[k]:.4g} s) = {self.history[k]:.4g}" for k in sorted({n // 8, n // 4, n // 2, n - 1})))
+        lines.append("history: " + ", ".join(f"λ({self.t[k]:.4g} s) = {self.history[k]:.4g}" for k in sorted({n // 8, n // 4, n // 2, n - 1})))
         return "\n".join(lines)
 
 

@@ -22,6 +22,8 @@ def summary_lines(run: RunSummary, config: Path, output: Path | None, wall: floa
         f"  drift    {drift}  (max relative, over the run)",
     ]
     lines += event_lines(run)
+    if "ended by" in stats.details:
+        lines.append(f"  ended    by {stats.details['ended by']}")
     if output is not None:
         size = output.stat().st_size if output.exists() else 0
         lines.append(f"  wrote    {output} ({size / 1e6:.2f} MB) — open with: rerun {output}")

@@ -199,3 +199,13 @@ def test_a_sweep_reports_each_cases_events(cli, write, tmp_path):
 
     drawn = entity_paths(tmp_path / "out" / "sweep_sweep.rrd")  # each event column drawn against each parameter
     assert {"/results/initial_omega_0/event_flip_first_s/cases", "/results/initial_omega_0/event_flip_count/cases"} <= drawn
+
+
+def test_a_terminal_event_stops_the_stepping_soon_after_it():
+    """The watch sees the rows every ``WATCHED_STEPS`` steps at most: the run ends ≤ that many
+    steps past the event (5,000 steps to t = 5 s at h = 1e-3, over a span of 80 s)."""
+    from rotlab.methods.stepping import WATCHED_STEPS
+
+    traj = flip_run("rk4", **{"solver.step": 1e-3, "time.end": 80.0, "time.sample_rate": 10.0},
+                    events=[{"name": "stop", "when": "t - 5", "terminal": True}])
+    assert traj.t[-1] == 5.0 and 5000 <= traj.stats.steps <= 5000 + WATCHED_STEPS

@@ -62,8 +62,10 @@ def test_hints_for_values_that_look_like_unit_slips(cli):
     assert result.exit_code == 0
     lines = result.stderr.splitlines()
     assert any("initial.euler_313 = [15.0, 0.0, 0.0] rad is more than a turn: did you mean euler_313_deg" in line for line in lines)
-    assert any("|initial.omega| = 2e+04 rad/s" in line and "omega_rpm" in line for line in lines)
+    assert any("|ω₀| = 2e+04 rad/s = 1.91e+05 rpm" in line and "omega_rpm: rev/min" in line for line in lines)
     heavy = cli("validate", str(CONFIGS / "lagrange.toml"), "--set", "body.mass=500", "--set", "body.center_of_mass=[0, 0, 0.0001]")
     assert "density ~1.26e+10 kg/m³" in heavy.stderr and heavy.exit_code == 0
+    low = cli("validate", str(CONFIGS / "detumbling.toml"), "--set", "loads[0].altitude=500")
+    assert "loads[0].altitude = 500 m: an orbit is at least ~150 km up" in low.stderr
     quiet = cli("validate", str(CONFIGS))
     assert quiet.exit_code == 0 and "hint" not in quiet.stderr  # none for the shipped scenarios

@@ -3,7 +3,8 @@
 
 * an angle in radians beyond a turn (15 "rad" of Euler angle is 860°: degrees meant?);
 * ω beyond 10⁴ rad/s (~95,000 rpm: rpm or deg/s typed as rad/s?);
-* a body whose mass and inertia imply a density far from any material's: the mass spread as a
+* an orbit's altitude below 100 km (km typed where m are asked);
+* a body given by its moments whose mass and inertia imply a density far from any material's: the mass spread as a
   uniform ball of the same second moment about its centre, tr S_c = ½ tr I_c = (3/5) m r², has
   density ρ = m / (4/3 π r³); above ``MAX_DENSITY`` (5 × osmium's 22,590 kg/m³) or below
   ``MIN_DENSITY`` (air, 1.2 kg/m³) the mass or the moments are in other units (g, g·cm²?).
@@ -20,6 +21,7 @@ from rotlab.config.models import Scenario
 MAX_OMEGA = 1e4  # rad/s
 MAX_DENSITY = 1.2e5  # kg/m³
 MIN_DENSITY = 1.2  # kg/m³
+MIN_ALTITUDE = 1e5  # m: no orbit lower
 
 
 def hints(scenario: Scenario) -> list[str]:
@@ -32,9 +34,13 @@ def hints(scenario: Scenario) -> list[str]:
             out.append(f"initial.{key} = {list(value)} rad is more than a turn: did you mean {key}_deg (degrees)?")
     speed = math.sqrt(sum(w * w for w in initial.omega))
     if speed > MAX_OMEGA:
-        out.append(f"|initial.omega| = {speed:.3g} rad/s ({speed * 60 / (2 * math.pi):.3g} rpm): if you meant rev/min or deg/s, "
-                   "write omega_rpm or omega_deg")
-    density = implied_density(scenario)
+        out.append(f"|ω₀| = {speed:.3g} rad/s = {speed * 60 / (2 * math.pi):.3g} rpm = {math.degrees(speed):.3g} deg/s: check the value "
+                   "and its unit (omega: rad/s, omega_rpm: rev/min, omega_deg: deg/s)")
+    for k, load in enumerate(scenario.loads):
+        altitude = getattr(load, "altitude", None)
+        if altitude is not None and altitude < MIN_ALTITUDE:
+            out.append(f"loads[{k}].altitude = {altitude:g} m: an orbit is at least ~150 km up; altitude is in m (500 km: 500e3)")
+    density = implied_density(scenario) if scenario.body.geometry() is None else None  # (a geometry states its own density)
     if density is not None and not MIN_DENSITY <= density <= MAX_DENSITY:
         out.append(f"body: mass {scenario.body.total_mass():g} kg with these moments of inertia is a body of density ~{density:.3g} kg/m³ "
                    "(materials: 1–23,000): is the mass in kg and the inertia in kg·m²?")

@@ -40,6 +40,9 @@ if TYPE_CHECKING:
 Chunk = Callable[[np.ndarray, np.ndarray, int, int], tuple[int, int, int]]
 
 CHUNK_STEPS = 1 << 18
+# steps per kernel call while a watch sees the rows (events): a terminal event ends the run at most
+# this many steps past it; a call's budget ends between two steps, so the steps are the same
+WATCHED_STEPS = 1 << 12
 STALL_FACTOR = 10  # an adaptive run whose pace needs this many times the steps it has left stops (``stall_message``)
 WINDOW = 1 << 14  # samples per window when streaming (8 doubles each: 1 MB)
 
@@ -170,8 +173,9 @@ def run_chunks(
             failure = first.failure
         if streamed:  # the first row can flush (a kernel that took > FLUSH_SECONDS to load): Ctrl-C there too
             control.consumer.rows(0, t[:1], out[:1])
+        chunk = WATCHED_STEPS if control.watch is not None else CHUNK_STEPS
         while i < n and failure is None:
-            budget = min(CHUNK_STEPS, max_steps - steps)
+            budget = min(chunk, max_steps - steps)
             if budget <= 0:
                 failure = exhausted()
                 break
@@ -183,7 +187,10 @@ def run_chunks(
             status, local, taken = advance(times, window, i - base, budget)
             steps += taken
             done = base + local
-            if status == 0 and integrator_time is not None and taken >= budget == CHUNK_STEPS and steps < max_steps:
+            if status == 0 and taken == 0 and done == i and budget == chunk < CHUNK_STEPS:  # a sample needs more: whole chunks
+                chunk = CHUNK_STEPS
+                continue
+            if status == 0 and integrator_time is not None and taken >= budget == chunk and steps < max_steps:
                 failure = stall_message(start, now(), taken, float(t[n - 1]), max_steps - steps, max_steps)
             if status != 0:
                 valid = _valid_rows(window, local)  # a kernel may have written non-finite rows before it stopped

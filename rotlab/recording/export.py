@@ -19,6 +19,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -38,12 +39,14 @@ def recorded_trajectory(recording: Path):
     from rotlab.trajectory import RunStats, Trajectory
 
     try:
-        saved = json.loads(read_text(recording, layout.SCENARIO))
-        t, q = read_series(recording, layout.QUATERNION)
-        _, omega = read_series(recording, layout.OMEGA)
+        with warnings.catch_warnings():  # Rerun's reader warns about a damaged file before failing on it
+            warnings.simplefilter("ignore")
+            saved = json.loads(read_text(recording, layout.SCENARIO))
+            t, q = read_series(recording, layout.QUATERNION)
+            _, omega = read_series(recording, layout.OMEGA)
     except Exception:
-        raise InputError(str(recording), "not a rotlab run recording with its scenario (written by rotlab 0.1 with /scenario): "
-                                         "run it again with `rotlab run`") from None
+        raise InputError(str(recording), "not a complete rotlab run recording with its scenario (another file, one cut short, or "
+                                         "one written before /scenario was recorded: run it again with `rotlab run`)") from None
     if saved.get("python_torque"):
         raise InputError(str(recording), "this run had a Python torque function, which its file does not hold: "
                                          "export it from Python with traj.to_dataframe()")

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -122,10 +123,12 @@ class _Run:
     @classmethod
     def read(cls, path: Path, overlaid: bool) -> _Run:
         try:
-            t, _ = read_series(path, layout.OMEGA)
-            found = panels(path)
+            with warnings.catch_warnings():  # Rerun's reader warns about a damaged file before failing on it
+                warnings.simplefilter("ignore")
+                t, _ = read_series(path, layout.OMEGA)
+                found = panels(path)
         except Exception:
-            raise InputError(str(path), "not a rotlab run recording (no /body/omega series)") from None
+            raise InputError(str(path), "not a complete rotlab run recording (no /body/omega series: another file, or cut short)") from None
         return cls(path, path.stem if overlaid else "", found, entity_paths(path), float(t[0]), float(t[-1]))
 
     def name(self, series: str) -> str:
@@ -202,6 +205,7 @@ def _finish(ax, panel: Panel, span: tuple[float, float], runs: int) -> None:
         ax.set_xlabel("t (s)")
         ax.set_xlim(*span)
     ax.grid(alpha=0.3)
+    ax.ticklabel_format(axis="y", useOffset=False)  # a near-constant series (an invariant) shows its values, not an offset
     if len(ax.get_lines()) > 1 or panel.section:
         ax.legend(fontsize=8, loc="best")
 

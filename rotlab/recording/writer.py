@@ -73,9 +73,9 @@ def check_output_path(path: Path, inputs: tuple[Path, ...] = ()) -> None:
         raise InputError(where, f"cannot be used ({exc.strerror}): choose another path with -o") from None
     if existing is not None:
         if stat.S_ISDIR(existing.st_mode):
-            raise InputError(where, "is a directory: give a file name ending in .rrd")
+            raise InputError(where, f"is a directory: give a file name ending in {path.suffix or '.rrd'}")
         if not stat.S_ISREG(existing.st_mode):
-            raise InputError(where, "is not a regular file (a device, FIFO or socket): give a file name ending in .rrd")
+            raise InputError(where, f"is not a regular file (a device, FIFO or socket): give a file name ending in {path.suffix or '.rrd'}")
         for source in inputs:
             if source.exists() and os.path.samefile(path, source):
                 raise InputError(where, f"is the input {source}: give another name with -o")
