@@ -18,7 +18,8 @@ y_k, so that Φ(y_k, t_k, t_{k+1}) is the run's next sample; the closed form for
 error only: δt ≈ δg / |ġ|, δg the error of g on the method's state.
 
 Detection is on the samples: two crossings inside one sample interval cancel and are not seen
-(raise ``time.sample_rate`` to resolve them).  An event at t0 itself is not an occurrence.
+(raise ``time.sample_rate`` to resolve them).  A sign change through a pole (g = 1/x) is not an
+occurrence: where Brent's method ends, |g| exceeds its values at both samples.  An event at t0 itself is not an occurrence.
 A ``terminal`` event ends the run at its ``count``-th occurrence: the run keeps its samples
 before it and ends with the state at the event.  A value of ``when`` or of a ``record`` formula
 that is not finite stops the run, naming the event and the time.
@@ -48,7 +49,8 @@ if TYPE_CHECKING:
 TIME_RTOL = 1e-14  # Brent's tolerance on the event time, relative to |t| (module docstring)
 RATE_INPUTS = opcodes.INPUTS["omega"][0] + opcodes.INPUTS["omega"][1]  # t and ω: the inputs before Λ
 DIRECTIONS = {"rising": RISING, "falling": FALLING, "both": RISING | FALLING}
-COMPILED_KEPT = 64  # compiled event sets kept (``compile_events``)
+COMPILED_KEPT = 64
+POLE = np.empty(0)  # ``_locate``'s mark of a sign change through a pole  # compiled event sets kept (``compile_events``)
 _COMPILED: dict[tuple, CompiledEvents] = {}
 
 
@@ -182,6 +184,8 @@ class EventWatch:
         scanned), in time order; a terminal one ends the run there, keeping the rows before ``row``."""
         located = sorted(((*self._locate(k, t0, y0, t1, float(g0[k])), k) for k in events), key=lambda item: item[0])
         for when, y, k in located:
+            if y is POLE:
+                continue
             spec, found = self.compiled.specs[k], self.found[k]
             if y is None:
                 return Stop(row, f"event '{spec.name}': when = \"{spec.when}\" is not finite on the method's solution "
@@ -201,7 +205,8 @@ class EventWatch:
 
     def _locate(self, k: int, t0: float, y0: np.ndarray, t1: float, g0: float) -> tuple[float, np.ndarray | None]:
         """(time, state) of event ``k``'s root in (t0, t1] on the local solution from (t0, y0);
-        state None when the formula is not finite there."""
+        state None when the formula is not finite there, ``POLE`` when the sign changed through a
+        pole (no occurrence)."""
         states: dict[float, np.ndarray] = {}
 
         def g(tau: float) -> float:
@@ -218,8 +223,10 @@ class EventWatch:
         if g1 == 0.0 or np.sign(g1) == np.sign(g0):  # the local solution meets 0 at the sample itself (to its rounding)
             return t1, states[span]
         tau = brentq(g, 0.0, span, xtol=TIME_RTOL * max(abs(t0), abs(t1)) + 1e-300, rtol=4.0 * np.finfo(float).eps)
-        y = states[tau] if tau in states else self.local(y0, t0, t0 + tau)
-        return t0 + tau, y
+        value = g(tau)
+        if not abs(value) <= max(abs(g0), abs(g1)):  # g changed sign through a pole (1/x), not through 0
+            return t0 + tau, POLE
+        return t0 + tau, states[tau]
 
     def local(self, y: np.ndarray, t0: float, t1: float) -> np.ndarray:
         """The method's local solution (``Method.local_solution``), made on first use."""

@@ -53,7 +53,7 @@ def parse_formula(text: str, constants: dict[str, float], max_nodes: int = MAX_N
     if len(text) > MAX_LENGTH:
         raise FormulaError(0, f"formula of {len(text):,} characters is beyond the limit of {MAX_LENGTH}: split it with named constants")
     if not text.strip():
-        raise FormulaError(0, "empty formula: write 0 for no load")
+        raise FormulaError(0, "empty formula: write a formula (0 for a value that is always zero)")
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
