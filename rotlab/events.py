@@ -139,6 +139,7 @@ class EventWatch:
         fixed-step method's may need its probe run again)."""
         self.compiled, self._make_local = compiled, local
         self._local: LocalSolution | None = None
+        self.ends_runs = any(spec.terminal for spec in compiled.specs)  # ``stepping.RowWatch``
         self.found = [_Found() for _ in compiled.specs]
         self.final: tuple[float, np.ndarray] | None = None
         self.ended_by: str | None = None

@@ -40,8 +40,8 @@ if TYPE_CHECKING:
 Chunk = Callable[[np.ndarray, np.ndarray, int, int], tuple[int, int, int]]
 
 CHUNK_STEPS = 1 << 18
-# steps per kernel call while a watch sees the rows (events): a terminal event ends the run at most
-# this many steps past it; a call's budget ends between two steps, so the steps are the same
+# steps per kernel call while a watch that may end the run sees the rows (a terminal event): the run
+# ends at most this many steps past it; a call's budget ends between two steps, so the steps are the same
 WATCHED_STEPS = 1 << 12
 STALL_FACTOR = 10  # an adaptive run whose pace needs this many times the steps it has left stops (``stall_message``)
 WINDOW = 1 << 14  # samples per window when streaming (8 doubles each: 1 MB)
@@ -63,6 +63,8 @@ class Stop:
 
 
 class RowWatch(Protocol):
+    ends_runs: bool  # it may end a run early (a terminal event): the kernel then runs in shorter calls
+
     def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> Stop | None:
         """Samples ``start, start + 1, …`` as they are made (every run, streamed or whole, the
         initial sample first), before any consumer sees them; a ``Stop`` ends the run there."""
@@ -173,7 +175,7 @@ def run_chunks(
             failure = first.failure
         if streamed:  # the first row can flush (a kernel that took > FLUSH_SECONDS to load): Ctrl-C there too
             control.consumer.rows(0, t[:1], out[:1])
-        chunk = WATCHED_STEPS if control.watch is not None else CHUNK_STEPS
+        chunk = WATCHED_STEPS if control.watch is not None and control.watch.ends_runs else CHUNK_STEPS
         while i < n and failure is None:
             budget = min(chunk, max_steps - steps)
             if budget <= 0:
