@@ -37,6 +37,8 @@ def test_chosen_panels_span_and_sections(cli, tmp_path):
     section = rotlab.simulate(CONFIGS / "chaotic_top.toml", overrides={"time.end": 100.0}).events["section"]
     inside = int(np.sum((section.t >= 20) & (section.t <= 80)))
     assert f"{inside} points" in svg
+    events = cli("plot", "c.rrd", "-o", "e.svg", "--panels", "event_section", "--from", "20", "--to", "80")
+    assert events.exit_code == 0 and f"omega[0] ({inside:,} in the span)" in (tmp_path / "e.svg").read_text()
 
 
 @pytest.mark.parametrize("args, key, words", [

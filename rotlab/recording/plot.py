@@ -178,8 +178,9 @@ def _series(ax, run: _Run, panel: Panel, span: tuple[float, float], line_style: 
         for j, name in enumerate(_names(run.path, entity, values.shape[1])):
             color = XYZ[j] if vectors else f"C{drawn % 10}"
             drawn += 1
-            if points:
-                ax.plot(t, values[:, j], "o", ms=3, label=run.name(name), color=color, fillstyle="full" if line_style == "-" else "none")
+            if points:  # an event's markers: the first series' label counts the occurrences drawn (within the span)
+                label = run.name(f"{name} ({t.shape[0]:,} in the span)" if j == 0 else name)
+                ax.plot(t, values[:, j], "o", ms=3, label=label, color=color, fillstyle="full" if line_style == "-" else "none")
             else:
                 ax.plot(*envelope(t, values[:, j]), line_style, lw=0.8, label=run.name(name), color=color)
 
@@ -200,13 +201,13 @@ def _finish(ax, panel: Panel, span: tuple[float, float], runs: int) -> None:
     """Title, axes, grid and the legend of a panel drawn from every run."""
     if panel.section:
         ax.set_title(f"Poincaré section {panel.origin.rsplit('/', 1)[1]}", fontsize=10)
-    else:
-        ax.set_title(panel.title, fontsize=10)
+    else:  # (an event's view names its whole count: the span's is in the legend)
+        ax.set_title(f"event {panel.origin.rsplit('/', 1)[1]}" if panel.origin.startswith(layout.EVENTS + "/") else panel.title, fontsize=10)
         ax.set_xlabel("t (s)")
         ax.set_xlim(*span)
     ax.grid(alpha=0.3)
     ax.ticklabel_format(axis="y", useOffset=False)  # a near-constant series (an invariant) shows its values, not an offset
-    if len(ax.get_lines()) > 1 or panel.section:
+    if len(ax.get_lines()) > 1 or panel.section or panel.origin.startswith(layout.EVENTS + "/"):
         ax.legend(fontsize=8, loc="best")
 
 
