@@ -5,12 +5,13 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 __all__ = ["InputError", "Interrupted", "Lyapunov", "RunFailure", "Scenario", "Stability", "Trajectory", "__version__", "load",
-           "lyapunov", "parse_scenario", "save", "simulate", "stability"]
+           "lyapunov", "parse_scenario", "save", "show", "simulate", "stability"]
 
 _LAZY = {
     "load": "rotlab.api",
     "simulate": "rotlab.api",
     "save": "rotlab.api",
+    "show": "rotlab.api",
     "parse_scenario": "rotlab.config.loader",
     "stability": "rotlab.linear_stability",
     "lyapunov": "rotlab.lyapunov_exponent",

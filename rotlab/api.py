@@ -90,6 +90,15 @@ def save(path: str | Path, traj: Trajectory) -> Path:
     return write_recording(traj, path)
 
 
+def show(traj: Trajectory, width: int | None = None, height: int | None = None):
+    """The Rerun viewer in a Jupyter notebook, showing ``traj`` as ``rotlab run``'s recording does
+    (the cell's output: ``rotlab.show(traj)``; needs ``pip install 'rotlab[notebook]'``).  Beside
+    ``save``, not a ``Trajectory`` method: a run's data knows nothing of the recording."""
+    from rotlab.recording.notebook_view import show as widget
+
+    return widget(traj, width, height)
+
+
 def run_scene(scene: Scene, progress: ProgressCallback | None = None, plan: Plan | None = None) -> Trajectory:
     """Run ``scene`` whole: every sample in memory (the Python API).  ``plan``: the method, why,
     settings and sample times decided already (a sweep's one choice for all its cases), else

@@ -177,13 +177,6 @@ class Trajectory:
 
         return trajectory_html(self)
 
-    def show(self, width: int | None = None, height: int | None = None):
-        """The Rerun viewer in a Jupyter notebook, showing this run as ``rotlab run``'s recording
-        does (needs ``pip install 'rotlab[notebook]'``; ``rotlab.recording.notebook_view``)."""
-        from rotlab.recording.notebook_view import show
-
-        return show(self, width, height)
-
     def columns(self) -> dict[str, tuple[np.ndarray, str]]:
         """Every series as a named column: name → (values, unit).  Vectors name their frame."""
         out: dict[str, tuple[np.ndarray, str]] = {"t": (self.t, "s")}

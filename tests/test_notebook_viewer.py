@@ -1,4 +1,4 @@
-"""``Trajectory.show()``: the run in Rerun's notebook widget, written by the recording's own writer
+"""``rotlab.show(traj)``: the run in Rerun's notebook widget, written by the recording's own writer
 (the widget queues what it is sent until a notebook front end connects: the test reads that queue,
 a detail of rerun-notebook 0.41), and a one-line ImportError without the optional package."""
 
@@ -17,7 +17,7 @@ def test_show_gives_the_notebook_viewer_the_whole_run(tmp_path):
     if not notebook.HAS_NOTEBOOK:
         pytest.skip("rerun-notebook is not installed (pip install 'rotlab[notebook]')")
     traj = rotlab.simulate(CONFIGS / "lagrange.toml", duration=0.5)
-    viewer = traj.show(width=800, height=500)
+    viewer = rotlab.show(traj, width=800, height=500)
     assert isinstance(viewer, notebook.Viewer)
     deadline = time.monotonic() + 10.0
     queued = 0
@@ -34,4 +34,4 @@ def test_show_without_the_notebook_package_says_how_to_get_it(monkeypatch):
     monkeypatch.setattr(notebook, "HAS_NOTEBOOK", False)
     traj = rotlab.simulate(CONFIGS / "euler.toml", duration=0.1)
     with pytest.raises(ImportError, match=r"pip install 'rotlab\[notebook\]'"):
-        traj.show()
+        rotlab.show(traj)

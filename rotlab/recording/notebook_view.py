@@ -1,4 +1,4 @@
-"""``Trajectory.show()``: the Rerun viewer inside a Jupyter notebook, showing the run as
+"""``rotlab.show(traj)``: the Rerun viewer inside a Jupyter notebook, showing the run as
 ``rotlab run``'s recording does — the same writer, series and layout — through Rerun's notebook
 widget (``rerun.notebook.Viewer``; optional dependency: ``pip install 'rotlab[notebook]'``).
 The data goes to an in-memory recording stream that only the widget reads: nothing is written
@@ -42,7 +42,7 @@ def show(traj: Trajectory, width: int | None = None, height: int | None = None):
     except ImportError:
         HAS_NOTEBOOK = False
     if not HAS_NOTEBOOK:
-        raise ImportError("traj.show() needs Rerun's notebook widget: pip install 'rotlab[notebook]' (rerun-notebook 0.41)")
+        raise ImportError("rotlab.show() needs Rerun's notebook widget: pip install 'rotlab[notebook]' (rerun-notebook 0.41)")
     from rotlab.recording.writer import RecordingWriter
 
     rec = rr.RecordingStream("rotlab", recording_id=str(uuid.uuid4()))
