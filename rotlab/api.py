@@ -67,19 +67,27 @@ def simulate(
     instead, with ``traj.ok`` False and the reason in ``traj.stats.failure``.
     ``torque``: an extra load, a function fn(t, q, omega) -> (Mx, My, Mz) of the time, Λ and ω
     (user's body frame), M in ``frame`` ("body" or "space"), compiled by numba."""
-    if not isinstance(scenario, Scenario):
-        scenario = load(scenario, method=method, duration=duration, overrides=overrides)
-    elif method is not None or duration is not None or overrides:
-        changes = dict(overrides or {})
-        if method is not None:
-            changes["solver.method"] = method
-        raw = scenario.model_dump(mode="json", exclude_unset=True)
-        scenario = parse_scenario(raw, source=scenario.title or "scenario", overrides=changes, duration=duration)
+    scenario = scenario_of(scenario, method=method, duration=duration, overrides=overrides)
     traj = run_scene(build_scene(scenario, torque=torque, frame=frame), progress=progress)
     if check and not traj.ok:
         stopped = Interrupted if traj.stats.interrupted else RunFailure
         raise stopped(f"run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid samples are in exc.trajectory", trajectory=traj)
     return traj
+
+
+def scenario_of(scenario: Scenario | str | Path, *, method: str | None = None, duration: float | None = None,
+                overrides: Mapping[str, Any] | None = None) -> Scenario:
+    """The scenario of a file or a ``Scenario``, with ``method``, ``duration`` and ``overrides``
+    applied and validated as in the file (the object itself when there are none)."""
+    if not isinstance(scenario, Scenario):
+        return load(scenario, method=method, duration=duration, overrides=overrides)
+    if method is None and duration is None and not overrides:
+        return scenario
+    changes = dict(overrides or {})
+    if method is not None:
+        changes["solver.method"] = method
+    raw = scenario.model_dump(mode="json", exclude_unset=True)
+    return parse_scenario(raw, source=scenario.title or "scenario", overrides=changes, duration=duration)
 
 
 def save(path: str | Path, traj: Trajectory) -> Path:

@@ -77,12 +77,10 @@ def stability(scenario: Scenario | str | Path, *, overrides: Mapping[str, Any] |
     """The linear stability of ``scenario`` (object or file) at its initial state (module
     docstring).  An ``InputError`` names what makes the scene out of reach: loads that are not
     constant parallel forces, or an initial state that is not an equilibrium."""
-    from rotlab.api import load
+    from rotlab.api import scenario_of
     from rotlab.scene.scene import build_scene
 
-    if not isinstance(scenario, Scenario):
-        scenario = load(scenario, overrides=overrides)
-    scene = build_scene(scenario)
+    scene = build_scene(scenario_of(scenario, overrides=overrides))
     if scene.has_work or (scene.has_potential and scene.field_direction is None):
         raise InputError("loads", "stability analyses a torque-free body or one in a uniform field (constant parallel forces); "
                                   f"this scene is {scene.kind}: {scene.kind_reason}")

@@ -71,14 +71,11 @@ class Lyapunov:
 def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, overrides: Mapping[str, Any] | None = None) -> Lyapunov:
     """The maximal Lyapunov exponent of ``scenario`` (object or file) over ``duration`` (s, else
     its own span), renormalised at every sample (module docstring)."""
-    from rotlab.api import _plan, load
+    from rotlab.api import _plan, scenario_of
     from rotlab.methods.registry import get_method
     from rotlab.scene.scene import build_scene
 
-    if not isinstance(scenario, Scenario) or duration is not None or overrides:
-        raw = scenario if not isinstance(scenario, Scenario) else None
-        scenario = load(raw, duration=duration, overrides=overrides) if raw is not None else _changed(scenario, duration, overrides)
-    scene = build_scene(scenario)
+    scene = build_scene(scenario_of(scenario, duration=duration, overrides=overrides))
     chosen, reason, settings, t = _plan(scene)
     why = f"{chosen.name} ({reason})"
     if chosen.name == "exact":
@@ -114,9 +111,10 @@ def divergence(scenario: Scenario | str | Path, *, duration: float | None = None
     long interval, as Wolf et al. 1985 do with two trajectories):  λ ≈ Σ ln(d / separation) / T.
     ``interval`` short enough that d stays small (λ · interval ≲ 10)."""
     import rotlab
+    from rotlab.api import scenario_of
     from rotlab.config.loader import parse_scenario
 
-    base = _changed(rotlab.load(scenario) if not isinstance(scenario, Scenario) else scenario, duration, overrides)
+    base = scenario_of(scenario, duration=duration, overrides=overrides)
     start, end = base.time.start, base.time.end
     raw = base.model_dump(mode="json", exclude_unset=True)
     raw.pop("events", None)  # (a terminal event would end the runs)
@@ -147,13 +145,6 @@ def divergence(scenario: Scenario | str | Path, *, duration: float | None = None
         if t0 >= end - 1e-9 * max(1.0, abs(end)):
             return total / (end - start)
         here = run(t0, q, w)
-
-
-def _changed(scenario: Scenario, duration: float | None, overrides: Mapping[str, Any] | None) -> Scenario:
-    from rotlab.config.loader import parse_scenario
-
-    raw = scenario.model_dump(mode="json", exclude_unset=True)
-    return parse_scenario(raw, source=scenario.title or "scenario", overrides=dict(overrides or {}), duration=duration)
 
 
 def _tangent(d: np.ndarray, x: np.ndarray) -> np.ndarray:
