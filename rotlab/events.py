@@ -37,6 +37,7 @@ from rotlab.core.event_values import FALLING, RISING, crossings, first_not_finit
 from rotlab.core import quaternion as quat
 from rotlab.core import opcodes
 from rotlab.core.quaternion import from_matrix
+from rotlab.kept import Kept
 from rotlab.core.torques import EX_COLUMNS, EX_OFF, EX_UP
 from rotlab.methods.stepping import Stop
 from rotlab.scene import formulas
@@ -49,9 +50,9 @@ if TYPE_CHECKING:
 TIME_RTOL = 1e-14  # Brent's tolerance on the event time, relative to |t| (module docstring)
 RATE_INPUTS = opcodes.INPUTS["omega"][0] + opcodes.INPUTS["omega"][1]  # t and ω: the inputs before Λ
 DIRECTIONS = {"rising": RISING, "falling": FALLING, "both": RISING | FALLING}
-COMPILED_KEPT = 64
-POLE = np.empty(0)  # ``_locate``'s mark of a sign change through a pole  # compiled event sets kept (``compile_events``)
-_COMPILED: dict[tuple, CompiledEvents] = {}
+POLE = np.empty(0)  # ``_locate``'s mark of a sign change through a pole
+OBSERVED = ("count", "first_s", "interval_s")  # what a sweep reports of each event (``observables``)
+_COMPILED: Kept[CompiledEvents] = Kept(64)  # compiled event sets (``compile_events``)
 
 
 @dataclass(frozen=True)
@@ -115,11 +116,7 @@ def compile_events(scene: Scene) -> CompiledEvents | None:
     if not events:
         return None
     key = (tuple(e.model_dump_json() for e in events), scene.axes.tobytes(), np.asarray(scene.moments, dtype=float).tobytes())
-    if key not in _COMPILED:
-        if len(_COMPILED) >= COMPILED_KEPT:
-            _COMPILED.pop(next(iter(_COMPILED)))
-        _COMPILED[key] = CompiledEvents(list(events), scene)
-    return _COMPILED[key]
+    return _COMPILED.get(key, lambda: CompiledEvents(list(events), scene))
 
 
 @dataclass
@@ -157,7 +154,7 @@ class EventWatch:
         stop = self._scan(t, state, g, n)
         if stop is not None or n == t.shape[0]:
             return stop
-        return Stop(n, self._not_finite(cut.index(n), "when", float(t[n])))
+        return Stop(n, self._not_finite(cut.index(n), 0, float(t[n])))
 
     def _scan(self, t: np.ndarray, state: np.ndarray, g: np.ndarray, n: int) -> Stop | None:
         """Locate the occurrences in the first ``n`` rows (finite values), in time order, and
@@ -193,7 +190,7 @@ class EventWatch:
                                  f"between t = {t0:.9g} s and t = {t1:.9g} s: write it so that it is defined on the whole motion")
             values = np.array([self.compiled.values(k, 1 + j, np.array([when]), y[None, :])[0] for j in range(len(spec.record))])
             if not np.all(np.isfinite(values)):
-                return Stop(row, self._not_finite(k, f"record[{int(np.argmin(np.isfinite(values)))}]", when))
+                return Stop(row, self._not_finite(k, 1 + int(np.argmin(np.isfinite(values))), when))
             found.t.append(when)
             found.values.append(values)
             found.rising.append(bool(g0[k] < 0.0))
@@ -235,9 +232,10 @@ class EventWatch:
             self._local = self._make_local()
         return self._local(y, t0, t1)
 
-    def _not_finite(self, k: int, formula: str, t: float) -> str:
+    def _not_finite(self, k: int, component: int, t: float) -> str:
+        """Event ``k``'s formula ``component`` (0: ``when``, j + 1: ``record[j]``) is not finite at t."""
         spec = self.compiled.specs[k]
-        text = spec.when if formula == "when" else spec.record[int(formula[7:-1])]
+        formula, text = ("when", spec.when) if component == 0 else (f"record[{component - 1}]", spec.record[component - 1])
         return (f"event '{spec.name}': {formula} = \"{text}\" is not finite at t = {t:.9g} s "
                 "(a log, sqrt or division outside its domain?): write it so that it is defined on the whole motion")
 
@@ -256,7 +254,7 @@ class EventWatch:
 
 def observable_names(events: list[Event]) -> list[str]:
     """The columns a sweep reports for ``events`` (``observables``)."""
-    return [f"event_{e.name}_{what}" for e in events for what in ("count", "first_s", "interval_s")]
+    return [f"event_{e.name}_{what}" for e in events for what in OBSERVED]
 
 
 def observables(logs: dict[str, EventLog]) -> dict[str, float]:
@@ -264,7 +262,7 @@ def observables(logs: dict[str, EventLog]) -> dict[str, float]:
     time (s) and the mean interval between occurrences (s; NaN where undefined)."""
     out: dict[str, float] = {}
     for name, log in logs.items():
-        out[f"event_{name}_count"] = float(log.count)
-        out[f"event_{name}_first_s"] = float(log.t[0]) if log.count else float("nan")
-        out[f"event_{name}_interval_s"] = float(log.intervals().mean()) if log.count > 1 else float("nan")
+        nan = float("nan")
+        values = (float(log.count), float(log.t[0]) if log.count else nan, float(log.intervals().mean()) if log.count > 1 else nan)
+        out.update({f"event_{name}_{what}": value for what, value in zip(OBSERVED, values)})
     return out

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from rotlab.recording import scatter as sc
+from rotlab.events import OBSERVED
 from rotlab.recording.layout import TIMELINE
 from rotlab.recording.style import AXIS_TRACE, ramp_color
 from rotlab.sweep.results import Results
@@ -39,7 +40,7 @@ OBSERVABLES = {  # table column → (plot title, transform of the value)
 }
 
 
-EVENT_TITLES = {"count": "{name}: occurrences", "first_s": "{name}: first time (s)", "interval_s": "{name}: mean interval (s)"}
+EVENT_TITLES = dict(zip(OBSERVED, ("{name}: occurrences", "{name}: first time (s)", "{name}: mean interval (s)")))
 
 
 def scatter_columns(results: Results) -> dict[str, tuple[str, str | None]]:
