@@ -19,6 +19,7 @@ import numpy as np
 from rotlab.core import quaternion as quat
 from rotlab.errors import InputError, RunFailure
 from rotlab.recording import layout, style, visuals
+from rotlab.recording.plot import pyplot
 from rotlab.recording.reader import entity_paths, read_series, read_static, read_text
 
 MAX_FRAMES = 3000
@@ -66,14 +67,9 @@ def animate(recording: Path, output: Path, fps: float = 20.0, speed: float = 1.0
         raise InputError("--speed", f"must be a positive factor (got {speed:g})")
     if not recording.is_file():
         raise InputError(str(recording), "no such recording")
-    try:
-        import matplotlib
+    plt = pyplot("rotlab animate")
+    from matplotlib import animation
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        from matplotlib import animation
-    except ImportError:
-        raise RunFailure("`rotlab animate` needs matplotlib: pip install 'rotlab[plots]'") from None
     if suffix == ".mp4" and not animation.writers.is_available("ffmpeg"):
         raise RunFailure("an .mp4 needs ffmpeg on PATH (Debian: apt-get install ffmpeg); or write a .gif")
     from rotlab.recording.writer import check_output_path

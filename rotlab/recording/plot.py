@@ -67,13 +67,7 @@ def plot(recordings: list[Path], output: Path, keys: list[str] | None = None, st
     for recording in recordings:
         if not recording.is_file():
             raise InputError(str(recording), "no such recording")
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise RunFailure("`rotlab plot` needs matplotlib: pip install 'rotlab[plots]'") from None
+    plt = pyplot("rotlab plot")
     from rotlab.recording.writer import check_output_path
 
     check_output_path(output, tuple(recordings))
@@ -133,6 +127,19 @@ class _Run:
 
     def name(self, series: str) -> str:
         return f"{self.label}: {series}" if self.label else series
+
+
+def pyplot(command: str):
+    """matplotlib's pyplot on the Agg backend (files, no display), or a ``RunFailure`` naming
+    ``command`` and the optional extra that brings it."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise RunFailure(f"`{command}` needs matplotlib: pip install 'rotlab[plots]'") from None
+    return plt
 
 
 def _span(first: float, last: float, start: float | None, end: float | None) -> tuple[float, float]:
