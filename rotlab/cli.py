@@ -195,7 +195,7 @@ def validate(
     from rotlab.batch.runner import collect_configs
     from rotlab.config import load_scenario
     from rotlab.errors import InputError
-    from rotlab.recording.report import body_lines
+    from rotlab.geometry_inertia import describe
 
     try:
         configs = collect_configs(paths)
@@ -207,7 +207,7 @@ def validate(
         try:
             scenario = load_scenario(path, overrides)
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
-            for line in body_lines(scenario.body):
+            for line in describe(scenario.body):
                 typer.echo(f"  {line[2:]}")
             _hint(scenario, f"{path}: ")
         except InputError as exc:

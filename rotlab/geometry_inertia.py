@@ -63,3 +63,15 @@ def about_pivot(parts: Sequence[tuple[str, object, float, np.ndarray]], pivot: n
         tensor += shifted(central_inertia(kind, size, m), m, d)
         moment += m * d
     return tensor, moment / total, total
+
+
+def describe(body) -> list[str]:
+    """Report lines ("- …") of what ``about_pivot`` computed for a body given by its geometry
+    (``config.models.Body.geometry``): none for one given by its moments (run report, ``rotlab validate``)."""
+    computed = body.geometry()
+    if computed is None:
+        return []
+    tensor, centre, mass = computed
+    rows = "; ".join(np.array2string(row, precision=6, separator=", ") for row in tensor)
+    return [f"- body from its {'shape' if body.shape is not None else f'{len(body.parts)} parts'}: mass {mass:.6g} kg, centre of mass "
+            f"{np.array2string(centre, precision=6, separator=', ')} m from the fixed point; inertia about it [{rows}] kg·m² (body frame)"]

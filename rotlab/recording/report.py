@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rotlab import geometry_inertia
 from rotlab.recording import portrait_view
 from rotlab.trajectory import RunSummary
 
@@ -21,17 +22,6 @@ SCENE_KEY = {  # what each drawn thing is (the 3D view's labels are short symbol
 }
 
 
-def body_lines(body) -> list[str]:
-    """What rotlab computed of a body given by its geometry (``Body.geometry``): none otherwise."""
-    computed = body.geometry()
-    if computed is None:
-        return []
-    tensor, centre, mass = computed
-    rows = "; ".join(np.array2string(row, precision=6, separator=", ") for row in tensor)
-    return [f"- body from its {'shape' if body.shape is not None else f'{len(body.parts)} parts'}: mass {mass:.6g} kg, centre of mass "
-            f"{np.array2string(centre, precision=6, separator=', ')} m from the fixed point; inertia about it [{rows}] kg·m² (body frame)"]
-
-
 def run_report(run: RunSummary, scales: dict[str, tuple[float, str]] | None = None) -> str:
     """The report; ``scales``: arrow symbol → (length per unit, unit) as drawn in the 3D view."""
     scene, stats = run.scene, run.stats
@@ -42,7 +32,7 @@ def run_report(run: RunSummary, scales: dict[str, tuple[float, str]] | None = No
     lines += [
         f"- scene: **{scene.kind.replace('_', '-')}** — {scene.kind_reason}",
         f"- principal moments: {np.array2string(scene.moments, precision=6)} kg·m²",
-        *body_lines(scenario.body),
+        *geometry_inertia.describe(scenario.body),
         f"- method: **{stats.method}** — {stats.reason}",
         f"- samples: {run.samples:,} from {run.start:g} s to {run.end:g} s",
         f"- steps: {stats.steps:,} accepted, {stats.rejected_steps:,} rejected; {stats.rhs_evaluations:,} evaluations of f",
