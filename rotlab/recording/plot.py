@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from rotlab.errors import InputError, RunFailure
-from rotlab.recording import layout
+from rotlab.recording import layout, style, visuals
 from rotlab.recording.reader import entity_paths, query_matches, read_series, read_static, read_text, view_queries
 
 FORMATS = (".pdf", ".svg", ".png")
@@ -173,7 +173,7 @@ def _title(recording: Path) -> str:
 def _series(ax, run: _Run, panel: Panel, span: tuple[float, float], line_style: str) -> None:
     """Every scalar entity the panel's view shows, its series named as in the viewer."""
     points = panel.origin.startswith(layout.EVENTS + "/")
-    vectors = panel.origin in (layout.OMEGA, layout.L_SPACE, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE)
+    vectors = visuals.series_colors(panel.origin, []) is style.XYZ  # x, y, z components: red, green, blue, as in the viewer
     drawn = 0  # the panel's series so far: the same colour for the same series of every run
     for entity in sorted(query_matches(["$origin/**"], panel.origin, run.entities)):
         try:
