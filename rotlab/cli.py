@@ -207,7 +207,7 @@ def validate(
         try:
             scenario = load_scenario(path, overrides)
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
-            for line in describe(scenario.body):
+            for line in (*describe(scenario.body), *scenario.rotor_lines()):
                 typer.echo(f"  {line[2:]}")
             _hint(scenario, f"{path}: ")
         except InputError as exc:

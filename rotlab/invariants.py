@@ -2,12 +2,13 @@
 when a scene has it, and its relative drift.  Config checks, scenes, trajectories and the
 recording all read this table (this module needs only numpy).
 
-    T = ½ ω·Iω,  L = Iω (body) and R L (space),  V = −Σ F·(R p),  W = ∫ M_nc·ω dt,  H = T + V − W.
+    T = ½ ω·Iω,  L = Iω + h (body; h: a gyrostat's rotors) and R L (space),  V = −Σ F·(R p),
+    W = ∫ M_nc·ω dt,  H = T + V − W.
 Scale: |L₀| for momenta, max(|H₀|, T₀ + |V₀|) for energy; absolute when the scale is zero.
     energy            (H − H₀)/scale                     every scene
     quaternion_norm   |Λ| − 1                            every scene
-    L_norm            (|L| − |L₀|)/|L₀|                  torque-free
-    L_space           |L_space − L_space₀| / |L₀|        torque-free
+    L_norm            (|L| − |L₀|)/|L₀|                  no load exerts a torque (a free gyrostat too)
+    L_space           |L_space − L_space₀| / |L₀|        no load exerts a torque
     L_vertical        (L_space − L_space₀)·up / |L₀|     parallel forces, no work (up = −F̂)
     L_symmetry        (L − L₀)·e_sym / |L₀|              Lagrange top
 """
@@ -61,9 +62,9 @@ TABLE: tuple[Invariant, ...] = (
               lambda s: _relative(s.energy - s.energy0, s.energy_scale)),
     Invariant("quaternion_norm", "|Λ|−1", lambda scene: True,
               lambda s: row_norm(s.q) - 1.0, full_rate=False),  # a function of Λ alone, which is kept
-    Invariant("L_norm", "|L|", lambda scene: scene.kind == "torque_free",
+    Invariant("L_norm", "|L|", lambda scene: scene.free_of_loads,
               lambda s: _relative(row_norm(s.L_body) - s.L_scale, s.L_scale)),
-    Invariant("L_space", "L space", lambda scene: scene.kind == "torque_free",
+    Invariant("L_space", "L space", lambda scene: scene.free_of_loads,
               lambda s: _relative(row_norm(s.L_space - s.L_space0), s.L_scale)),
     Invariant("L_vertical", "L·up", lambda scene: scene.field_direction is not None,
               lambda s: _relative(np.einsum("...j,j->...", s.L_space - s.L_space0, s.field_direction), s.L_scale)),

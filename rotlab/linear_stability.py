@@ -5,7 +5,9 @@ Phase space (principal body frame): ω for a torque-free body; (ω, γ) for a bo
 field, γ = Rᵀ·up the field's "up" in body axes (the Euler–Poisson equations).  Parallel
 constant forces F_i = s_i·up at body points p_i give M = c × γ with c = Σ s_i p_i, so
 
-    I ω̇ = I ω × ω + c × γ,        γ̇ = γ × ω,
+    I ω̇ = (I ω + h) × ω + c × γ,        γ̇ = γ × ω,
+
+(h: a gyrostat's rotors' momentum, zero without rotors),
 
 and the attitude about "up" (and, torque-free, the whole attitude) is left out: it is neutral and
 does not feed back.  An equilibrium of these equations is a relative equilibrium of the body: a
@@ -14,7 +16,7 @@ Lagrange top's steady precession is one in the top's reduced coordinates (θ, θ
 (``steady_precession``).
 The Jacobian is exact:
 
-    ∂ω̇/∂ω = I⁻¹([Iω]× − [ω]× I),  ∂ω̇/∂γ = I⁻¹[c]×,  ∂γ̇/∂ω = [γ]×,  ∂γ̇/∂γ = −[ω]×.
+    ∂ω̇/∂ω = I⁻¹([Iω + h]× − [ω]× I),  ∂ω̇/∂γ = I⁻¹[c]×,  ∂γ̇/∂ω = [γ]×,  ∂γ̇/∂γ = −[ω]×.
 
 Verdict: "unstable" when the largest real part exceeds ``NEUTRAL`` × the scene's rate scale (the
 eigenvalues of a Jacobian with repeated zero eigenvalues — the Casimirs |γ|, L·γ — carry
@@ -23,7 +25,8 @@ small oscillations neither grow nor decay (a linearisation cannot decide nonline
 the free body's major and minor axes are stable, energy–Casimir; a sleeping top with C²ω₃² >
 4 A m g l is too).  Closed forms the tests hold it to: the intermediate axis grows at
 λ = Ω √((I₂−I₁)(I₃−I₂)/(I₁I₃)); a sleeping top is unstable iff C²ω₃² < 4 A m g l, growing at
-√(4 A m g l − C²ω₃²)/(2A).
+√(4 A m g l − C²ω₃²)/(2A); a gyrostat spinning at Ω about principal axis 2 with h = h e₂ has
+λ² = −((I₂−I₃)Ω + h)((I₂−I₁)Ω + h)/(I₁I₃): a rotor can hold the intermediate axis (a dual-spin body).
 """
 
 from __future__ import annotations
@@ -88,10 +91,11 @@ def stability(scenario: Scenario | str | Path, *, overrides: Mapping[str, Any] |
     state0 = scene.state0
     omega = state0[4:7].copy()
     inverse = np.diag(1.0 / moments)
-    d_omega_d_omega = inverse @ (_cross_matrix(moments * omega) - _cross_matrix(omega) @ np.diag(moments))
+    h = np.zeros(3) if scene.rotor_momentum is None else np.asarray(scene.rotor_momentum, dtype=float)
+    d_omega_d_omega = inverse @ (_cross_matrix(moments * omega + h) - _cross_matrix(omega) @ np.diag(moments))
     if not scene.has_potential:
         rate = float(np.linalg.norm(omega))
-        _check_rest(moments, omega, None, None, rate)
+        _check_rest(moments, h, omega, None, None, rate)
         jacobian, x0, space = d_omega_d_omega, omega, "ω (principal body frame, rad/s); the attitude is neutral"
     else:
         up = np.asarray(scene.field_direction, dtype=float)
@@ -99,9 +103,9 @@ def stability(scenario: Scenario | str | Path, *, overrides: Mapping[str, Any] |
         gamma = quat.rotate_to_body_array(unit_q, up)
         c = field_arm(scene)
         rate = float(max(np.linalg.norm(omega), np.sqrt(np.linalg.norm(c) / np.min(moments))))
-        if scene.symmetry_axis is not None and not _at_rest(moments, omega, gamma, c, rate):
+        if scene.symmetry_axis is not None and not _at_rest(moments, h, omega, gamma, c, rate):
             return steady_precession(moments, np.asarray(scene.symmetry_axis, dtype=float), omega, gamma, c, rate)
-        _check_rest(moments, omega, gamma, c, rate)
+        _check_rest(moments, h, omega, gamma, c, rate)
         jacobian = np.block([[d_omega_d_omega, inverse @ _cross_matrix(c)], [_cross_matrix(gamma), -_cross_matrix(omega)]])
         x0 = np.concatenate([omega, gamma])
         space = ("(ω, γ): ω (principal body frame, rad/s) and γ = Rᵀ·up, the field's up in body axes; "
@@ -113,23 +117,27 @@ def stability(scenario: Scenario | str | Path, *, overrides: Mapping[str, Any] |
     return Stability(space, x0, jacobian, eigenvalues, growth if unstable else 0.0, "unstable" if unstable else "linearly stable", rate)
 
 
-def _rates(moments: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+def _rates(moments: np.ndarray, h: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None,
+           c: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """(ω̇, γ̇) of the module docstring's equations."""
     torque = np.zeros(3) if c is None else np.cross(c, gamma)
-    return (np.cross(moments * omega, omega) + torque) / moments, np.zeros(3) if gamma is None else np.cross(gamma, omega)
+    return (np.cross(moments * omega + h, omega) + torque) / moments, np.zeros(3) if gamma is None else np.cross(gamma, omega)
 
 
-def _at_rest(moments: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None, rate: float) -> bool:
+def _at_rest(moments: np.ndarray, h: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None,
+             rate: float) -> bool:
     """ω̇ = 0 and γ̇ = 0 at the state, to ``EQUILIBRIUM`` of rate² and rate."""
-    omega_dot, gamma_dot = _rates(moments, omega, gamma, c)
+    omega_dot, gamma_dot = _rates(moments, h, omega, gamma, c)
     return rate == 0.0 or (np.linalg.norm(omega_dot) <= EQUILIBRIUM * rate**2 and np.linalg.norm(gamma_dot) <= EQUILIBRIUM * rate)
 
 
-def _check_rest(moments: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None, rate: float) -> None:
+def _check_rest(moments: np.ndarray, h: np.ndarray, omega: np.ndarray, gamma: np.ndarray | None, c: np.ndarray | None,
+                rate: float) -> None:
     """An ``InputError`` unless the state is at rest (``_at_rest``)."""
-    if not _at_rest(moments, omega, gamma, c, rate):
-        omega_dot, gamma_dot = _rates(moments, omega, gamma, c)
-        what = ("a permanent rotation about a principal axis (ω₀ along one)" if gamma is None else
+    if not _at_rest(moments, h, omega, gamma, c, rate):
+        omega_dot, gamma_dot = _rates(moments, h, omega, gamma, c)
+        what = ("a permanent rotation about a principal axis (ω₀ along one)" if gamma is None and not np.any(h) else
+                "a gyrostat's permanent rotation (I ω₀ + h parallel to ω₀)" if gamma is None else
                 "a permanent rotation about a principal axis that is vertical, with the centre of mass on it (a sleeping top), "
                 "or a Lagrange top's steady precession")
         raise InputError("initial", f"not an equilibrium: |dω/dt| = {np.linalg.norm(omega_dot):.3g} rad/s², |dγ/dt| = "

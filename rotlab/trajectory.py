@@ -350,9 +350,10 @@ def _quantities(scene: Scene, state: np.ndarray):
     """(unit Λ_P, L_P, L_space, T, V (None without a field), T + V, T + V − W) of principal-frame rows."""
     q_p, w_p, work = state[..., 0:4], state[..., 4:7], state[..., 7]
     unit_q = unit_rows(q_p)
-    L_p = w_p * scene.moments
+    I_w = w_p * scene.moments
+    L_p = I_w if scene.rotor_momentum is None else I_w + scene.rotor_momentum  # a gyrostat's L = Iω + h
     L_space = quat.rotate_to_space_array(unit_q, L_p)
-    kinetic = 0.5 * row_dot(w_p, L_p)
+    kinetic = 0.5 * row_dot(w_p, I_w)
     potential = potential_energy(scene.loads, unit_q) if scene.has_potential else None
     total = kinetic if potential is None else kinetic + potential
     return unit_q, L_p, L_space, kinetic, potential, total, total - work

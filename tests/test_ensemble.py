@@ -45,6 +45,9 @@ METHOD_SCENES = [  # (config, time.end, method, solver changes)
     ("general.toml", 1.0, "rkmk4", {"step": 1e-3}),
     ("general.toml", 1.0, "dop853", {}),
     ("general.toml", 1.0, "taylor", {}),
+    ("gyrostat.toml", 20.0, "rk4", {"step": 1e-2}),  # L = I ω + h in the drifts
+    ("gyrostat.toml", 20.0, "dop853", {}),
+    ("gyrostat.toml", 20.0, "taylor", {}),
 ]
 
 

@@ -330,7 +330,8 @@ class Body(_Model):
 # file's others (``loader``); the model holds one of each group
 ONE_QUANTITY = ({"omega", "omega_rpm", "omega_deg"},
                 {"quaternion", "axis_angle", "axis_angle_deg", "euler_313", "euler_313_deg"},
-                {"target", "target_euler_313_deg", "target_axis_angle_deg"})
+                {"target", "target_euler_313_deg", "target_axis_angle_deg"},
+                {"spin", "spin_rpm"})
 RPM = 2.0 * math.pi / 60.0  # rad/s per revolution per minute
 DEGREE = math.pi / 180.0  # rad per degree
 
@@ -654,6 +655,54 @@ class Event(_Model):
         return out
 
 
+class Rotor(_Model):
+    """A rotor (a wheel) spinning at a constant rate relative to the body about an axis fixed in
+    it: the body becomes a gyrostat with the embedded momentum h = Σ J Ω â (body frame), and
+    I ω̇ + ω × (I ω + h) = M (Zhukovsky–Volterra).  ``[body]``'s inertia is the whole gyrostat's,
+    each rotor counted as if locked to the body.  Give ``inertia`` (J, about the axis) and
+    ``spin`` (Ω, rad/s; or ``spin_rpm``), or ``momentum`` (J Ω, N·m·s) alone."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _units(cls, data: object) -> object:
+        if isinstance(data, dict) and "spin_rpm" in data:
+            data = dict(data)
+            if "spin" in data:
+                raise _invalid("spin_rpm", "give spin or spin_rpm, not both")
+            try:
+                data["spin"] = float(_real(data.pop("spin_rpm"))) * RPM
+            except PydanticCustomError as exc:
+                raise _invalid("spin_rpm", exc.message()) from None
+        return data
+
+    name: Annotated[str, Field(max_length=EVENT_NAME_LENGTH)] = ""  # how the recording labels it (default: wheel <k>)
+    axis: Vec3  # body frame, any length (the direction is used)
+    inertia: PositiveReal | None = None  # J, kg·m², about the axis
+    spin_rpm: Real | None = None  # rev/min relative to the body: stored converted, as ``spin``
+    spin: Real | None = None  # Ω, rad/s relative to the body, right-handed about ``axis``
+    momentum: Real | None = None  # J Ω, N·m·s, instead of inertia and spin
+    position: Vec3 | None = None  # m, body frame, where the recording draws it (no effect on the motion)
+
+    @model_validator(mode="after")
+    def _complete(self) -> Rotor:
+        if not any(self.axis):
+            raise _invalid("axis", "must not be zero: give the rotor's spin axis in the body frame, e.g. [0, 0, 1]")
+        if self.momentum is not None:
+            for key in ("inertia", "spin"):
+                if getattr(self, key) is not None:
+                    raise _invalid(key, f"give momentum or inertia and spin, not both (found momentum and {key})")
+        elif self.inertia is None or self.spin is None:
+            missing = "inertia" if self.inertia is None else "spin"
+            raise _invalid(missing, "a rotor needs inertia (kg·m², about its axis) and spin (rad/s, or spin_rpm), or momentum (N·m·s)")
+        return self
+
+    def momentum_vector(self) -> np.ndarray:
+        """h of this rotor, body frame (N·m·s): J Ω â."""
+        axis = np.asarray(self.axis, dtype=float)
+        value = self.momentum if self.momentum is not None else float(self.inertia) * float(self.spin)  # type: ignore[arg-type]
+        return value * axis / np.linalg.norm(axis)
+
+
 class Time(_Model):
     """Time span and output sampling.  Samples include both ends."""
 
@@ -853,6 +902,7 @@ class Scenario(_Model):
     output: Output = _table(Output)
     checks: Checks = _table(Checks)
     events: list[Event] = []
+    rotors: list[Rotor] = []  # a gyrostat's wheels at constant relative spin (``Rotor``)
     sweep: Sweep | None = None  # used by `rotlab sweep`; `rotlab run` runs the base scenario
 
     @model_validator(mode="after")
@@ -864,6 +914,21 @@ class Scenario(_Model):
                                           {"key": f"events.{k}.name", "name": event.name})
             seen.add(event.name)
         return self
+
+    def rotor_momentum(self) -> np.ndarray:
+        """h = Σ of the rotors' J Ω â, body frame (N·m·s; zero without rotors)."""
+        return np.sum([r.momentum_vector() for r in self.rotors], axis=0) if self.rotors else np.zeros(3)
+
+    def rotor_lines(self) -> list[str]:
+        """The rotors, one Markdown list line each (body frame), and their momentum h (none without rotors)."""
+        lines = []
+        for k, rotor in enumerate(self.rotors):
+            given = (f"J = {rotor.inertia:.6g} kg·m², Ω = {rotor.spin:.6g} rad/s ({rotor.spin / RPM:.6g} rpm)"
+                     if rotor.momentum is None else f"J Ω = {rotor.momentum:.6g} N·m·s")
+            lines.append(f"- rotor {rotor.name or k + 1}: axis {list(rotor.axis)} (body frame), {given}")
+        if self.rotors:
+            lines.append(f"- rotors' momentum h: {np.array2string(self.rotor_momentum(), precision=6)} N·m·s, body frame (L = I ω + h)")
+        return lines
 
     @model_validator(mode="after")
     def _loads_need_body_data(self) -> Scenario:

@@ -3,6 +3,7 @@
 State y = (Λ, ω, W), 8 components:
     Λ̇ = ½ Λ ∘ (0, ω)                                   (Poisson, scalar-first quaternion)
     A ṗ = (B − C) q r + M1,  B q̇ = (C − A) r p + M2,  C ṙ = (A − B) p q + M3   (Euler)
+    (a gyrostat adds h × ω to M: I ω̇ + ω × (I ω + h) = M, h the rotors' momentum, body frame)
     Ẇ = M_nc · ω                                        (work of the non-conservative loads)
 The state layout is ``rotlab.core.state``; the loads reach ``rhs`` as one value, the scene's
 ``Model`` (``rotlab.scene.loads``), and only ``rotlab.core.torques`` reads its load fields (a
@@ -25,7 +26,8 @@ are plain compiled functions, called.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from rotlab.core.state import P0, Q0, STATE_SIZE, WORK
 from rotlab.core.torques import conservative_torque, nonconservative_torque
@@ -47,7 +49,7 @@ def rhs(t, y, dy, model):
     q0, q1, q2, q3 = y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3]
     p, q, r = y[P0], y[P0 + 1], y[P0 + 2]
     euler = model.euler
-    cx, cy, cz = conservative_torque(y, model)
+    cx, cy, cz = with_gyrostatic(conservative_torque(y, model), p, q, r, model.rotors)
     nx, ny, nz = nonconservative_torque(t, y, model)
     dy[Q0] = -0.5 * (q1 * p + q2 * q + q3 * r)
     dy[Q0 + 1] = 0.5 * (q0 * p + q2 * r - q3 * q)
@@ -57,6 +59,24 @@ def rhs(t, y, dy, model):
     dy[P0 + 1] = euler[1] * r * p + (cy + ny) * euler[4]
     dy[P0 + 2] = euler[2] * p * q + (cz + nz) * euler[5]
     dy[WORK] = nx * p + ny * q + nz * r
+
+
+def with_gyrostatic(torque, p, q, r, rotors):
+    """``torque`` + h × ω for a gyrostat's rotors' momentum h (body frame), workless (ω·(h × ω) = 0);
+    ``torque`` itself when there are no rotors (None: compiled to nothing)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(with_gyrostatic, inline="always")
+def _with_gyrostatic(torque, p, q, r, rotors):
+    if isinstance(rotors, types.NoneType):
+        return lambda torque, p, q, r, rotors: torque
+
+    def impl(torque, p, q, r, rotors):
+        return (torque[0] + (rotors[1] * r - rotors[2] * q), torque[1] + (rotors[2] * p - rotors[0] * r),
+                torque[2] + (rotors[0] * q - rotors[1] * p))
+
+    return impl
 
 
 @njit(cache=True, forceinline=True)

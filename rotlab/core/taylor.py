@@ -16,7 +16,8 @@ Loads (body components, principal frame; products P_ij = λ_i λ_j, i ≤ j, 10 
   map), γ^[0] = F + L(P^[0], F) at the start of each step (``lever_force`` = [p, F]);
 * body-frame time functions b(τ) (harmonic terms, table segments): their own series;
 * space-frame time functions s(τ): (Rᵀ s)^[k] = s^[k] + Σ_j L(P^[j], s^[k−j]);
-* damping −d ω.
+* damping −d ω;
+* a gyrostat's rotors: h × ω, linear in ω: (h × ω)^[k] = h × ω^[k].
 Windows and table knots are breakpoints: steps end there, so each step sees one smooth load;
 steps also end where an abs, sign, min or max of an expression switches branch.
 
@@ -34,7 +35,7 @@ from functools import cache
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, store_row
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, store_row, with_gyrostatic
 from rotlab.core.expressions import release_forced
 from rotlab.core.quaternion import N_PRODUCTS, cross_array, rotate_quadratic
 from rotlab.core.torques import F_FORCE, F_POINT, load_series, nonconservative_series, series_workspace, switch_step
@@ -128,6 +129,7 @@ def series(t, X, order, model, c0, T, lever_force, G, body, space, P, M, has_pro
             tx += py * G[k, 2] - pz * G[k, 1]
             ty += pz * G[k, 0] - px * G[k, 2]
             tz += px * G[k, 1] - py * G[k, 0]
+        tx, ty, tz = with_gyrostatic((tx, ty, tz), X[k, 4], X[k, 5], X[k, 6], model.rotors)  # (h × ω)^[k] = h × ω^[k]
         nx = ny = nz = 0.0
         if has_work:  # else no load does work: the series below is zero (a call per order saved)
             nx, ny, nz = nonconservative_series(k, t, X, P, model, body, space, has_space, inputs, tape, stack)

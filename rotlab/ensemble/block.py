@@ -116,6 +116,8 @@ def shared_inputs(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         shared[ob.SHARED_UP:ob.SHARED_UP + 3] = scene.field_direction
     if scene.symmetry_axis is not None:
         shared[ob.SHARED_SYMMETRY:ob.SHARED_SYMMETRY + 3] = scene.symmetry_axis
+    if scene.rotor_momentum is not None:
+        shared[ob.SHARED_ROTORS:ob.SHARED_ROTORS + 3] = scene.rotor_momentum
     applies = np.array([name in scene.invariants for name in ob.INVARIANTS], dtype=np.bool_)
     forces = np.ascontiguousarray(scene.loads.forces, dtype=float) if scene.has_potential else np.zeros((0, 6))
     return shared, applies, forces

@@ -9,12 +9,13 @@ The same quantities a sweep reports from a stored trajectory (``rotlab.observabl
                ``rotlab.checks.period_of`` of them
     nutation:  cos ϑ = (R(Λ) e)·d = (2 q0² − 1)(e·d) + 2 (q·e)(q·d) + 2 q0 q·(e × d); max ϑ = arccos min cos ϑ
     drifts:    max |drift| of each invariant of ``rotlab.invariants.TABLE`` (its formulas, ``drifts_at``),
-               from the values at the first sample: L = I ω, L_space = R(Λ) L, T = ½ ω·L,
+               from the values at the first sample: L = I ω + h, L_space = R(Λ) L, T = ½ ω·I ω,
                V = −Σ F·(R(Λ) p), H = T + V − W.
 
 Per-case inputs (``CASE_*`` columns of ``case``): the flip axis row, e and d, the first sample's
 H₀, energy scale, L₀, L_space₀, |L₀|.  Shared (``SHARED_*`` columns of ``shared``): the moments,
-the field direction "up" and the symmetry axis (principal frame; zeros where the scene has none).
+the field direction "up", the symmetry axis and a gyrostat's rotors' h (principal frame; zeros
+where the scene has none).
 ``applies[k]``: the scene has invariant k (``INVARIANTS`` order).  Results (``ACC_*`` of ``acc``).
 """
 
@@ -36,8 +37,8 @@ if INVARIANTS != invariants.NAMES:
 
 CASE_FLIP, CASE_E, CASE_D, CASE_H0, CASE_SCALE, CASE_L0, CASE_LS0, CASE_LNORM = 0, 3, 6, 9, 10, 11, 14, 17
 CASE_COLUMNS = 18
-SHARED_MOMENTS, SHARED_UP, SHARED_SYMMETRY = 0, 3, 6
-SHARED_COLUMNS = 9
+SHARED_MOMENTS, SHARED_UP, SHARED_SYMMETRY, SHARED_ROTORS = 0, 3, 6, 9
+SHARED_COLUMNS = 12
 ACC_REVERSALS, ACC_FIRST, ACC_LAST, ACC_PREV_C, ACC_PREV_T, ACC_MIN_COS, ACC_DRIFT = 0, 1, 2, 3, 4, 5, 6
 ACC_COLUMNS = ACC_DRIFT + len(INVARIANTS)
 
@@ -60,13 +61,14 @@ def drifts_at(rows, i, norm, u0, u1, u2, u3, case, shared, applies, forces):
     scale_l = case[CASE_LNORM]
     energy = l_norm = l_space = l_vertical = l_symmetry = 0.0
     if applies[0]:  # energy: T + V − W − H₀
-        kinetic = 0.5 * (w1 * l1 + w2 * l2 + w3 * l3)
+        kinetic = 0.5 * (w1 * l1 + w2 * l2 + w3 * l3)  # (I ω, before h is added)
         potential = 0.0
         for f in range(forces.shape[0]):
             ax, ay, az = _to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
             potential -= ax * forces[f, F_FORCE] + ay * forces[f, F_FORCE + 1] + az * forces[f, F_FORCE + 2]
         total = kinetic + potential if forces.shape[0] else kinetic
         energy = abs(total - work - case[CASE_H0])
+    l1, l2, l3 = l1 + shared[SHARED_ROTORS], l2 + shared[SHARED_ROTORS + 1], l3 + shared[SHARED_ROTORS + 2]  # L = I ω + h
     if applies[2]:  # L_norm: |L| − |L₀|
         l_norm = abs(math.sqrt(l1 * l1 + l2 * l2 + l3 * l3) - scale_l)
     if applies[3] or applies[4]:

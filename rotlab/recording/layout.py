@@ -16,6 +16,7 @@ BODY = "/world/body"  # Transform3D: Λ (body → space); shape and body axes be
 BODY_SHAPE = "/world/body/shape"
 BODY_AXES = "/world/body/axes"
 BODY_ARM = "/world/body/arm"  # fixed point → centre of mass
+ROTORS = "/world/body/rotors"  # a gyrostat's wheels (static, body frame): /rotors/wheels (discs on their axes), /rotors/shafts
 BODY_POLHODE = "/world/body/polhode"  # torque-free: tip of scaled ω in the body frame
 AXIS_PATH = "/world/axis_path"  # static: path of the reference-axis tip (symmetry axis, else the spin axis)
 AXIS_TIP = "/world/axis_tip"  # the tip at each sample (drawn over the trailing window: the recent trace)

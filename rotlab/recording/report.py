@@ -18,6 +18,7 @@ SCENE_KEY = {  # what each drawn thing is (the 3D view's labels are short symbol
     "F1, M1, mg": "applied loads (magenta): a force at its point of application, a torque at the fixed point, space frame",
     "orange traces": "torque-free: herpolhode on the invariable plane (space) and polhode (body), tips of s·ω",
     "orange wireframe": "torque-free: the energy ellipsoid ω·Iω = 2T (scaled by s), fixed in the body; it rolls on the invariable plane, touching it at the tip of s·ω",
+    "green discs": "gyrostat: its rotors on their shafts, fixed in the body; L includes their momentum h",
     "coloured dots": "events: where the reference axis's tip was at each occurrence, in the colour of the event's first series in the Events tab",
 }
 
@@ -33,6 +34,7 @@ def run_report(run: RunSummary, scales: dict[str, tuple[float, str]] | None = No
         f"- scene: **{scene.kind.replace('_', '-')}** — {scene.kind_reason}",
         f"- principal moments: {np.array2string(scene.moments, precision=6)} kg·m²",
         *geometry_inertia.describe(scenario.body),
+        *scenario.rotor_lines(),
         f"- method: **{stats.method}** — {stats.reason}",
         f"- samples: {run.samples:,} from {run.start:g} s to {run.end:g} s",
         f"- steps: {stats.steps:,} accepted, {stats.rejected_steps:,} rejected; {stats.rhs_evaluations:,} evaluations of f",
@@ -56,3 +58,4 @@ def run_report(run: RunSummary, scales: dict[str, tuple[float, str]] | None = No
             lines.append(f"| Phase portrait tab | {portrait_view.POLHODE_NOTE} |")
         lines += ["", "Arrow scales: " + "; ".join(f"{symbol}: {value:.3g} {unit}" for symbol, (value, unit) in scales.items())]
     return "\n".join(lines) + "\n"
+

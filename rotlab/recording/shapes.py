@@ -84,3 +84,18 @@ def primitives(body: Body, size: float) -> dict[str, dict[str, list]]:
 def _add(out: dict[str, dict[str, list]], kind: str, **fields: object) -> None:
     for name, value in fields.items():
         out.setdefault(kind, {}).setdefault(name, []).append(value)
+
+
+WHEEL_RADIUS, WHEEL_WIDTH = 0.3, 0.06  # a rotor's disc, as fractions of the body's size
+
+
+def rotor_wheels(rotors, size: float) -> dict[str, list]:
+    """A gyrostat's rotors as the viewer's cylinders, body frame (origin at the fixed point): each a
+    disc on its axis at its ``position``, by default just outside the body (``size`` along the axis)."""
+    centers, rotations = [], []
+    for rotor in rotors:
+        axis = np.asarray(rotor.axis, dtype=float) / np.linalg.norm(rotor.axis)
+        centers.append(np.asarray(rotor.position, dtype=float) if rotor.position is not None else size * axis)
+        rotations.append(quat.between(np.array([0.0, 0.0, 1.0]), axis))  # the viewer's cylinders lie along z
+    return {"centers": centers, "quaternions": rotations, "lengths": [WHEEL_WIDTH * size] * len(centers),
+            "radii": [WHEEL_RADIUS * size] * len(centers)}

@@ -31,6 +31,7 @@ FIELD: Color = (160, 160, 160)  # the uniform field g
 AXIS_TRACE: Color = (90, 215, 230)  # the reference-axis tip (symmetry axis, else spin axis)
 BODY: Color = (200, 170, 90)
 ARM: Color = (40, 40, 40)
+ROTOR: Color = (120, 200, 120)  # a gyrostat's wheels
 
 ENERGY: dict[str, Color] = {
     "T": (255, 140, 20),  # kinetic: orange

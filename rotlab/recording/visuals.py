@@ -24,7 +24,7 @@ import rerun as rr
 from rotlab.core import quaternion as quat
 from rotlab.recording import labels, layout, loads_view, style
 from rotlab.recording.geometry import decimate
-from rotlab.recording.shapes import primitives
+from rotlab.recording.shapes import primitives, rotor_wheels
 from rotlab.trajectory import Trajectory
 
 DIM = 0.35  # whole paths: this fraction of their colour; the trailing window is drawn bright
@@ -131,6 +131,13 @@ def log_static(rec: rr.RecordingStream, traj: Trajectory, views) -> None:
     for kind, fields in drawn.items():  # a body given by its geometry: as it is
         archetype = {"box": rr.Boxes3D, "cylinder": rr.Cylinders3D, "ball": rr.Ellipsoids3D}[kind]
         rec.log(f"{layout.BODY_SHAPE}/{kind}", archetype(**fields, colors=[style.BODY], fill_mode="solid"), static=True)
+    rotors = traj.scene.scenario.rotors
+    if rotors:  # a gyrostat: each wheel a disc on its shaft from the fixed point
+        wheels = rotor_wheels(rotors, size)
+        rec.log(f"{layout.ROTORS}/wheels", rr.Cylinders3D(centers=wheels["centers"], lengths=wheels["lengths"], radii=wheels["radii"],
+                                                         quaternions=[rr.Quaternion(xyzw=xyzw(q)) for q in wheels["quaternions"]],
+                                                         colors=[style.ROTOR], fill_mode="solid"), static=True)
+        rec.log(f"{layout.ROTORS}/shafts", rr.LineStrips3D([[np.zeros(3), c] for c in wheels["centers"]], colors=[style.ROTOR]), static=True)
     rec.log(layout.BODY_AXES, rr.Arrows3D(vectors=np.eye(3) * AXES_LENGTH * size, colors=style.XYZ), static=True)
     texts, colors = label_style(traj)
     rec.log(layout.LABELS_3D, rr.Points3D.from_fields(radii=[0.0], colors=colors, labels=[style.label_3d(s) for s in texts]), static=True)

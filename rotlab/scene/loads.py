@@ -75,13 +75,15 @@ class Model(NamedTuple):
     damping: float | None
     expressions: Expressions | None
     user: UserTorque | None
+    rotors: np.ndarray | None = None  # (3,) the rotors' momentum h (principal frame): the gyrostatic torque h × ω
 
 
-def build_model(loads: LoadArrays, moments: np.ndarray, like: Model | None = None) -> Model:
+def build_model(loads: LoadArrays, moments: np.ndarray, like: Model | None = None, rotors: np.ndarray | None = None) -> Model:
     """The kernels' view of ``loads``: absent groups as None, so that a kernel specialises on the
     groups a scene has; with ``like``, the groups ``like`` has are present (empty where ``loads``
     has none) and the others None, so that the model has ``like``'s numba type (one load of a
-    scene, evaluated by the specialisation compiled for the scene's model)."""
+    scene, evaluated by the specialisation compiled for the scene's model: the loads' torque,
+    which has no rotors' term); ``rotors``: the gyrostat's h (principal frame), or None."""
     has = (lambda group, present: present) if like is None else (lambda group, present: getattr(like, group) is not None)
     has_tables = has("tables", len(loads.tables) > 0)
     expressions = loads.expressions
@@ -98,6 +100,7 @@ def build_model(loads: LoadArrays, moments: np.ndarray, like: Model | None = Non
         damping=loads.damping if has("damping", loads.damping > 0.0) else None,
         expressions=expressions,
         user=loads.user,
+        rotors=None if rotors is None else np.asarray(rotors, dtype=float),
     )
 
 

@@ -40,7 +40,7 @@ from rotlab.scene.user_torque import user_torque
 
 SYMMETRY_RTOL = 1e-12  # two moments this close are treated as equal (axisymmetric body)
 
-TORQUE_FREE, LAGRANGE, GENERAL = "torque_free", "lagrange", "general"
+TORQUE_FREE, LAGRANGE, GYROSTAT, GENERAL = "torque_free", "lagrange", "gyrostat", "general"
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,8 +56,10 @@ class Rigid:
     axes: np.ndarray  # (3, 3) proper rotation, columns = principal axes in the user's body frame
     axes_quaternion: np.ndarray  # Λ of ``axes``
     loads: LoadArrays
-    kind: str  # TORQUE_FREE | LAGRANGE | GENERAL
+    kind: str  # TORQUE_FREE | LAGRANGE | GYROSTAT | GENERAL
     kind_reason: str
+    free_of_loads: bool  # no load exerts a torque: L (rotors' h included) is conserved in space
+    rotor_momentum: np.ndarray | None  # h of the rotors (principal frame, N·m·s); None without (or with h = 0)
     has_potential: bool  # some conservative field exerts torque
     has_work: bool  # some non-conservative load
     field_direction: np.ndarray | None  # unit "up" (−F̂) when all forces are parallel: L·up is invariant
@@ -68,7 +70,7 @@ class Rigid:
     def model(self) -> Model:
         """The one value the kernels receive: Euler coefficients, breakpoints and the loads,
         absent groups as None (``rotlab.scene.loads.Model``)."""
-        return build_model(self.loads, self.moments)
+        return build_model(self.loads, self.moments, rotors=self.rotor_momentum)
 
     @cached_property
     def content_key(self) -> tuple | None:
@@ -141,6 +143,8 @@ class Scene:
     has_work = _rigid_field("has_work")
     field_direction = _rigid_field("field_direction")
     symmetry_axis = _rigid_field("symmetry_axis")
+    free_of_loads = _rigid_field("free_of_loads")
+    rotor_momentum = _rigid_field("rotor_momentum")
     model = _rigid_field("model")
     content_key = _rigid_field("content_key")
     is_principal = _rigid_field("is_principal")
@@ -213,11 +217,11 @@ class RigidParts:
         self._kept: Kept[Rigid] = Kept(size)
 
     def get(self, scenario: cfg.Scenario) -> Rigid:
-        key: object = (scenario.body, tuple(scenario.loads))  # frozen models, compared by value ...
+        key: object = (scenario.body, tuple(scenario.loads), tuple(scenario.rotors))  # frozen models, compared by value ...
         try:
             hash(key)
         except TypeError:  # ... unless a load holds a mapping (an expression's constants)
-            key = scenario.body.model_dump_json() + "".join(load.model_dump_json() for load in scenario.loads)
+            key = "".join(part.model_dump_json() for part in (scenario.body, *scenario.loads, *scenario.rotors))
         return self._kept.get(key, lambda: _build_rigid(scenario, None))
 
 
@@ -238,10 +242,18 @@ def _build_rigid(scenario: cfg.Scenario, user, user_function: Callable | None = 
     forces = active_forces(loads)
     has_work = has_nonconservative(loads)
     direction = _common_direction(forces[:, F_FORCE:F_FORCE + 3]) if len(forces) and not has_work else None
-    kind, reason, symmetry_axis = _classify(moments, forces, has_work)
+    h = axes.T @ scenario.rotor_momentum()  # principal frame
+    rotors = h if np.any(h != 0.0) else None
+    kind, reason, symmetry_axis = _classify(moments, forces, has_work) if rotors is None else _gyrostat(h, scenario.rotor_momentum())
     return Rigid(body=scenario.body, specs=tuple(scenario.loads), moments=moments, axes=axes, axes_quaternion=axes_q, loads=loads, kind=kind, kind_reason=reason,
+                 free_of_loads=not len(forces) and not has_work, rotor_momentum=rotors,
                  has_potential=bool(len(forces)), has_work=has_work, field_direction=None if direction is None else -direction,
                  symmetry_axis=symmetry_axis)
+
+
+def _gyrostat(h: np.ndarray, h_user: np.ndarray) -> tuple[str, str, None]:
+    """A body with rotors: a gyrostat, whatever its loads (no closed form here; no symmetry invariant kept)."""
+    return GYROSTAT, f"rotors carry the momentum h = {np.array2string(h_user, precision=4)} N·m·s (body frame)", None
 
 
 def _common_direction(vectors: np.ndarray) -> np.ndarray | None:

@@ -15,6 +15,8 @@ from rotlab.scene.scene import TORQUE_FREE, Scene
 
 
 def _requires(scene: Scene) -> str | None:
+    if scene.rotor_momentum is not None:
+        return "splitting's exact axis rotations are a rigid body's without rotors: for a gyrostat use dop853, taylor, rkmk4 or rk4"
     if scene.has_work:
         return (
             "splitting needs a conservative scene (free body, gravity, constant space-frame forces), "

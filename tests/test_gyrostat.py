@@ -1,0 +1,158 @@
+"""Gyrostats: a body carrying rotors at constant relative spin, I ω̇ + ω × (I ω + h) = M
+(Zhukovsky–Volterra), h = Σ J Ω â fixed in the body.
+
+Held against an independent integration of the gyrostat's equations in the user's body frame
+(SciPy's DOP853 at rtol 1e-13), its two Casimirs |I ω + h| and L_space = R (I ω + h) and its
+energy ½ ω·I ω, and the closed form of the dual-spin body's linear stability."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import rotlab
+from rotlab.config.loader import parse_scenario
+from rotlab.errors import InputError
+from tests.conftest import CONFIGS
+
+# a body given by a full tensor (its principal axes are not the user's axes) and two rotors on skew axes
+TENSOR = np.array([[2.0, 0.3, -0.1], [0.3, 3.0, 0.2], [-0.1, 0.2, 4.0]])
+ROTORS = [{"axis": [1.0, 1.0, 0.0], "inertia": 0.01, "spin": 60.0}, {"name": "pitch", "axis": [0.0, 0.0, 2.0], "momentum": -0.4}]
+H_USER = 0.6 * np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0) + np.array([0.0, 0.0, -0.4])
+OMEGA0 = np.array([0.3, -0.7, 0.5])
+Q0 = np.array([0.9, 0.1, -0.3, 0.2]) / np.linalg.norm([0.9, 0.1, -0.3, 0.2])
+END = 20.0
+
+
+def _scenario(method: str, **solver):
+    return parse_scenario({"body": {"inertia_tensor": TENSOR.tolist()}, "rotors": ROTORS,
+                           "initial": {"omega": OMEGA0.tolist(), "quaternion": Q0.tolist()},
+                           "time": {"end": END, "sample_rate": 20}, "solver": {"method": method, **solver}}, source="gyrostat")
+
+
+def _reference(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(ω, Λ) at ``t`` from the gyrostat's equations in the user's frame, independently of rotlab:
+    I ω̇ = (I ω + h) × ω, Λ̇ = ½ Λ ∘ (0, ω)."""
+
+    def f(_, y):
+        w, q = y[:3], y[3:]
+        dw = np.linalg.solve(TENSOR, np.cross(TENSOR @ w + H_USER, w))
+        q0, q1, q2, q3 = q
+        p, r, s = w
+        dq = 0.5 * np.array([-q1 * p - q2 * r - q3 * s, q0 * p + q2 * s - q3 * r, q0 * r + q3 * p - q1 * s, q0 * s + q1 * r - q2 * p])
+        return np.concatenate([dw, dq])
+
+    sol = solve_ivp(f, (0.0, END), np.concatenate([OMEGA0, Q0]), method="DOP853", rtol=1e-13, atol=1e-15, t_eval=t)
+    return sol.y[:3].T, sol.y[3:].T
+
+
+def test_the_rotors_momentum_is_the_sum_of_each_rotors_j_omega_along_its_axis():
+    scenario = _scenario("dop853")
+    assert scenario.rotor_momentum() == pytest.approx(H_USER, abs=1e-15)
+    traj = rotlab.simulate(scenario)
+    assert traj.scene.kind == "gyrostat"
+    assert traj.L_body[0] == pytest.approx(TENSOR @ OMEGA0 + H_USER, rel=1e-13)  # L = I ω + h, user's body frame
+    assert traj.kinetic[0] == pytest.approx(0.5 * OMEGA0 @ TENSOR @ OMEGA0, rel=1e-14)  # T = ½ ω·I ω: the rotors' own spin is not in it
+
+
+@pytest.mark.parametrize("method, solver, bound", [
+    ("dop853", {"rtol": 1e-12, "atol": 1e-14}, 5e-11),  # measured: 3e-12 (Λ), 7.5e-12 (L_space)
+    ("taylor", {"rtol": 1e-12, "atol": 1e-14}, 3e-12),  # measured: 1.3e-13
+    ("rk4", {"step": 1e-3}, 3e-12),  # measured: 1.2e-13
+    ("rkmk4", {"step": 1e-3}, 3e-12),
+])
+def test_a_free_gyrostat_matches_an_independent_integration_and_keeps_its_casimirs(method, solver, bound):
+    """ω and Λ in the user's frames within ``bound`` of the reference over 20 s (~2 turns of the
+    body, both rotors' h comparable to I ω); |L|, L_space and T kept to ``bound`` relative."""
+    traj = rotlab.simulate(_scenario(method, **solver))
+    assert traj.stats.failure is None and traj.t[-1] == END
+    omega, q = _reference(traj.t)
+    assert np.max(np.abs(traj.omega - omega)) <= bound
+    sign = np.sign(np.sum(traj.quaternion * q, axis=1))[:, None]  # Λ and −Λ are one attitude
+    assert np.max(np.abs(traj.quaternion * sign - q)) <= bound
+    drift = traj.max_drift()
+    assert set(drift) == {"energy", "quaternion_norm", "L_norm", "L_space"}
+    for name in ("energy", "L_norm", "L_space"):
+        assert drift[name] <= bound, name
+    L_space = traj.L_space
+    assert np.max(np.linalg.norm(L_space - L_space[0], axis=1)) <= bound * np.linalg.norm(L_space[0])
+
+
+@pytest.mark.parametrize("method", ["splitting", "dmv", "exact"])
+def test_methods_made_for_a_body_without_rotors_refuse_a_gyrostat_in_one_line(method):
+    with pytest.raises(InputError) as refused:
+        rotlab.simulate(_scenario(method))
+    message = str(refused.value)
+    assert "\n" not in message and ("rotors" in message or "gyrostat" in message)
+
+
+@pytest.mark.parametrize("h", [0.0, 0.2, 0.39, 0.41, 0.5, 1.5, -0.5, -1.1])
+def test_a_wheel_on_the_intermediate_axis_holds_it_as_the_closed_form_says(h):
+    """Spin Ω about the intermediate axis y, h = h ŷ: λ² = −((B − C)Ω + h)((B − A)Ω + h)/(A C)
+    (configs/gyrostat.toml's moments: held for h > (C − B)Ω = 0.4 N·m·s or h < −(B − A)Ω)."""
+    A, B, C, spin = 2.0, 3.0, 4.0, 0.4
+    result = rotlab.stability(CONFIGS / "gyrostat.toml",
+                              overrides={"initial.omega": [0.0, spin, 0.0], "rotors": [{"axis": [0, 1, 0], "momentum": h}] if h else []})
+    square = -((B - C) * spin + h) * ((B - A) * spin + h) / (A * C)
+    if square > 0:
+        assert result.verdict == "unstable" and result.growth_rate == pytest.approx(np.sqrt(square), rel=1e-12)
+    else:
+        assert result.verdict == "linearly stable"
+        assert np.sort(np.abs(result.eigenvalues.imag))[1:] == pytest.approx([np.sqrt(-square)] * 2, rel=1e-12)
+
+
+def test_the_shipped_dual_spin_body_stays_on_its_axis_and_flips_without_its_wheel():
+    held = rotlab.simulate(CONFIGS / "gyrostat.toml")
+    assert np.min(held.omega[:, 1]) > 0.39 and held.max_drift()["L_norm"] <= 1e-12
+    bare = rotlab.simulate(CONFIGS / "gyrostat.toml", overrides={"rotors": []})
+    assert bare.scene.kind == "torque_free" and np.min(bare.omega[:, 1]) < -0.39  # the Dzhanibekov flip
+
+
+def test_a_heavy_gyrostat_keeps_its_vertical_momentum():
+    """A Lagrange top carrying a rotor on a skew axis: no closed form and no symmetry invariant,
+    but gravity's torque is horizontal, so (R (I ω + h))·up is kept (taylor, to 1e-11)."""
+    traj = rotlab.simulate(CONFIGS / "lagrange.toml", method="taylor", duration=2.0,
+                           overrides={"rotors": [{"axis": [1.0, 0.0, 1.0], "momentum": 0.002}], "solver.rtol": 1e-12})
+    assert traj.scene.kind == "gyrostat"
+    drift = traj.max_drift()
+    assert "L_symmetry" not in drift and drift["L_vertical"] <= 1e-11 and drift["energy"] <= 1e-11
+
+
+@pytest.mark.parametrize("rotor, key", [
+    ({"axis": [0, 0, 0], "momentum": 1.0}, "rotors[0].axis"),
+    ({"axis": [1, 0, 0], "inertia": 0.1}, "rotors[0].spin"),
+    ({"axis": [1, 0, 0], "momentum": 1.0, "spin": 3.0}, "rotors[0].spin"),
+    ({"axis": [1, 0, 0], "inertia": 0.1, "spin": 1.0, "spin_rpm": 10.0}, "rotors[0].spin_rpm"),
+    ({"axis": [1, 0, 0], "inertia": -0.1, "spin": 1.0}, "rotors[0].inertia"),
+    ({"axis": [1, 0, 0], "momentum": 1.0, "mass": 3.0}, "rotors[0].mass"),
+])
+def test_a_bad_rotor_is_one_line_naming_its_key(cli, write, rotor, key):
+    body = "\n".join(f"{k} = {v!r}".replace("'", '"') for k, v in rotor.items())
+    path = write("bad.toml", f"[body]\nprincipal_moments = [1, 2, 3]\n[time]\nend = 1.0\n[[rotors]]\n{body}\n")
+    result = cli("validate", str(path))
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and key in lines[0]
+
+
+def test_spin_rpm_is_stored_in_rad_per_s():
+    scenario = parse_scenario({"body": {"principal_moments": [1, 2, 3]}, "time": {"end": 1.0},
+                               "rotors": [{"axis": [0, 0, 1], "inertia": 0.5, "spin_rpm": 60.0}]}, source="rpm")
+    assert scenario.rotors[0].spin == pytest.approx(2.0 * np.pi, rel=1e-15)
+    assert scenario.rotor_momentum() == pytest.approx([0.0, 0.0, np.pi], rel=1e-15)
+
+
+def test_the_recording_draws_each_wheel_on_its_axis_and_the_report_lists_them(tmp_path):
+    from rotlab.recording.reader import read_static, read_text
+
+    path = rotlab.save(tmp_path / "g.rrd", rotlab.simulate(_scenario("dop853")))
+    centers = np.asarray(read_static(path, "/world/body/rotors/wheels", "Cylinders3D:centers"), dtype=float)
+    assert centers.shape == (2, 3)
+    for center, rotor in zip(centers, ROTORS):
+        axis = np.asarray(rotor["axis"], dtype=float) / np.linalg.norm(rotor["axis"])
+        assert np.linalg.norm(np.cross(center, axis)) <= 1e-6 * np.linalg.norm(center) and center @ axis > 0  # on its axis, this side
+    report = read_text(path, "/info")
+    assert "- rotor 1: axis [1.0, 1.0, 0.0] (body frame), J = 0.01 kg·m², Ω = 60 rad/s (572.958 rpm)" in report
+    assert "- rotor pitch: axis [0.0, 0.0, 2.0] (body frame), J Ω = -0.4 N·m·s" in report
+    assert "rotors' momentum h: [ 0.424264  0.424264 -0.4     ] N·m·s" in report
