@@ -1,14 +1,15 @@
 """Symplectic splitting for conservative scenes: exact axis rotations and potential kicks,
 composed to order 2, 4, 6 or 8.
 
-Hamiltonian H = T1 + T2 + T3 + V,  T_i = L_i² / (2 I_i),  V(Λ) = −Σ F·(R p), with L = I ω (body).
+Hamiltonian H = T1 + T2 + T3 + V,  T_i = (L_i − h_i)² / (2 I_i),  V(Λ) = −Σ F·(R p), with
+L = I ω + h (body; h the momentum of a gyrostat's rotors, constant in the body, else 0).
 Each part is integrated exactly:
 
-* R_i(τ), the flow of T_i: the body turns about its axis e_i at the constant rate L_i / I_i, so
-  with α = τ L_i / I_i
+* R_i(τ), the flow of T_i: the body turns about its axis e_i at the constant rate ω_i = (L_i − h_i) / I_i,
+  so with α = τ ω_i
       Λ ← Λ ∘ (cos(α/2), sin(α/2) e_i),     L ← rotation of L by −α about e_i  (L_i unchanged).
   The space vector R L is unchanged; |Λ| changes only by rounding (product of unit quaternions),
-  |L| likewise.
+  |L| likewise (for a gyrostat too: L, not I ω, is what turns).
 * K(τ), the flow of V at fixed Λ (a kick):  L ← L + τ Σ p × (Rᵀ F)  (``conservative_torque``).
 
 Base method (symmetric, 2nd order, symplectic, time-reversible), Strang splitting with the free
@@ -45,6 +46,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+from numba import types
+from numba.extending import overload
 
 from rotlab.core.dynamics import all_finite, store_row
 from rotlab.core.kernel_status import NONFINITE, OK
@@ -100,6 +104,30 @@ def _kick_torque(y, model):
     return conservative_torque(y, model)
 
 
+def _less_rotors(l, rotors, k):
+    """l − h_k: the body's own part of L_k, for a gyrostat's rotors' h (l itself without rotors)."""
+    raise NotImplementedError("compiled only")
+
+
+def _plus_rotors(l, rotors, k):
+    """l + h_k (l itself without rotors)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_less_rotors, inline="always")
+def _less_rotors_impl(l, rotors, k):
+    if isinstance(rotors, types.NoneType):
+        return lambda l, rotors, k: l
+    return lambda l, rotors, k: l - rotors[k]
+
+
+@overload(_plus_rotors, inline="always")
+def _plus_rotors_impl(l, rotors, k):
+    if isinstance(rotors, types.NoneType):
+        return lambda l, rotors, k: l
+    return lambda l, rotors, k: l + rotors[k]
+
+
 @njit(cache=True, forceinline=True)
 def sin_cos_small(x):
     """sin x, cos x for |x| ≤ 0.25 from their Taylor polynomials of degree 13 and 14 (truncation
@@ -115,7 +143,7 @@ def sin_cos_small(x):
 
 @njit(cache=True, forceinline=True)
 def _half_angle(tau, l, inv):
-    """For α = τ L_i / I_i: (d, s, e, σ) with (1 + d, s) = (cos(α/2), sin(α/2)) and
+    """For α = τ l I_i⁻¹ (l = L_i − h_i): (d, s, e, σ) with (1 + d, s) = (cos(α/2), sin(α/2)) and
     (1 + e, σ) = (cos α, sin α); d = −2 sin²(α/4) and e = −2 sin²(α/2) are formed without
     cancellation, so that small rotations keep full relative precision."""
     quarter = 0.25 * tau * l * inv
@@ -137,9 +165,9 @@ def _half_angle(tau, l, inv):
 
 
 @njit(cache=True, forceinline=True)
-def _turn1(tau, a0, a1, a2, a3, l1, l2, l3, inv1):
+def _turn1(tau, a0, a1, a2, a3, l1, l2, l3, inv1, rotors):
     """R1(τ): P ∘ (cos(α/2), sin(α/2), 0, 0), (L2, L3) turned by −α."""
-    d, s, e, sa = _half_angle(tau, l1, inv1)
+    d, s, e, sa = _half_angle(tau, _less_rotors(l1, rotors, 0), inv1)
     return (
         a0 + d + a0 * d - a1 * s,
         a1 + d * a1 + s + a0 * s,
@@ -152,9 +180,9 @@ def _turn1(tau, a0, a1, a2, a3, l1, l2, l3, inv1):
 
 
 @njit(cache=True, forceinline=True)
-def _turn2(tau, a0, a1, a2, a3, l1, l2, l3, inv2):
+def _turn2(tau, a0, a1, a2, a3, l1, l2, l3, inv2, rotors):
     """R2(τ): P ∘ (cos(α/2), 0, sin(α/2), 0), (L3, L1) turned by −α."""
-    d, s, e, sa = _half_angle(tau, l2, inv2)
+    d, s, e, sa = _half_angle(tau, _less_rotors(l2, rotors, 1), inv2)
     return (
         a0 + d + a0 * d - a2 * s,
         a1 + d * a1 - s * a3,
@@ -167,9 +195,9 @@ def _turn2(tau, a0, a1, a2, a3, l1, l2, l3, inv2):
 
 
 @njit(cache=True, forceinline=True)
-def _turn3(tau, a0, a1, a2, a3, l1, l2, l3, inv3):
+def _turn3(tau, a0, a1, a2, a3, l1, l2, l3, inv3, rotors):
     """R3(τ): P ∘ (cos(α/2), 0, 0, sin(α/2)), (L1, L2) turned by −α."""
-    d, s, e, sa = _half_angle(tau, l3, inv3)
+    d, s, e, sa = _half_angle(tau, _less_rotors(l3, rotors, 2), inv3)
     return (
         a0 + d + a0 * d - a3 * s,
         a1 + d * a1 + s * a2,
@@ -204,7 +232,8 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order)
     ns = gam.shape[0]
     inv1, inv2, inv3 = euler[3], euler[4], euler[5]
     q0, q1, q2, q3 = y[0], y[1], y[2], y[3]
-    l1, l2, l3 = y[4] / inv1, y[5] / inv2, y[6] / inv3
+    rotors = model.rotors
+    l1, l2, l3 = _plus_rotors(y[4] / inv1, rotors, 0), _plus_rotors(y[5] / inv2, rotors, 1), _plus_rotors(y[6] / inv3, rotors, 2)
     steps = 0
     i = i_start
     while i < times.shape[0] and steps + substeps <= max_steps:
@@ -226,18 +255,18 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order)
                     l2 += pk * cy
                     l3 += pk * cz
                     pk = 0.0
-                a0, a1, a2, a3, l1, l2, l3 = _turn1(p1 + 0.5 * g, a0, a1, a2, a3, l1, l2, l3, inv1)
-                a0, a1, a2, a3, l1, l2, l3 = _turn2(0.5 * g, a0, a1, a2, a3, l1, l2, l3, inv2)
-                a0, a1, a2, a3, l1, l2, l3 = _turn3(g, a0, a1, a2, a3, l1, l2, l3, inv3)
-                a0, a1, a2, a3, l1, l2, l3 = _turn2(0.5 * g, a0, a1, a2, a3, l1, l2, l3, inv2)
+                a0, a1, a2, a3, l1, l2, l3 = _turn1(p1 + 0.5 * g, a0, a1, a2, a3, l1, l2, l3, inv1, rotors)
+                a0, a1, a2, a3, l1, l2, l3 = _turn2(0.5 * g, a0, a1, a2, a3, l1, l2, l3, inv2, rotors)
+                a0, a1, a2, a3, l1, l2, l3 = _turn3(g, a0, a1, a2, a3, l1, l2, l3, inv3, rotors)
+                a0, a1, a2, a3, l1, l2, l3 = _turn2(0.5 * g, a0, a1, a2, a3, l1, l2, l3, inv2, rotors)
                 if kicks:
-                    a0, a1, a2, a3, l1, l2, l3 = _turn1(0.5 * g, a0, a1, a2, a3, l1, l2, l3, inv1)
+                    a0, a1, a2, a3, l1, l2, l3 = _turn1(0.5 * g, a0, a1, a2, a3, l1, l2, l3, inv1, rotors)
                     p1 = 0.0
                     pk = 0.5 * g
                 else:
                     p1 = 0.5 * g
             if p1 != 0.0 and j == substeps - 1:  # close the sample interval: whole steps only
-                a0, a1, a2, a3, l1, l2, l3 = _turn1(p1, a0, a1, a2, a3, l1, l2, l3, inv1)
+                a0, a1, a2, a3, l1, l2, l3 = _turn1(p1, a0, a1, a2, a3, l1, l2, l3, inv1, rotors)
             q0, q1, q2, q3 = _apply(q0, q1, q2, q3, a0, a1, a2, a3)
         if pk != 0.0:
             y[0], y[1], y[2], y[3] = q0, q1, q2, q3
@@ -247,7 +276,7 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order)
             l3 += pk * cz
         steps += substeps
         y[0], y[1], y[2], y[3] = q0, q1, q2, q3
-        y[4], y[5], y[6] = l1 * inv1, l2 * inv2, l3 * inv3
+        y[4], y[5], y[6] = _less_rotors(l1, rotors, 0) * inv1, _less_rotors(l2, rotors, 1) * inv2, _less_rotors(l3, rotors, 2) * inv3
         if not all_finite(y):  # (end_sample's check, written out: a contracting kernel's FMAs depend on its code's shape)
             return NONFINITE, i, steps
         store_row(out, i, y)

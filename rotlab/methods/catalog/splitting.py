@@ -1,9 +1,10 @@
 """``splitting``: symplectic splitting of T1 + T2 + T3 + V (exact axis rotations, potential
 kicks), symmetric composition of order 2, 4, 6 or 8 (``solver.order``, default 4).
 
-Conservative scenes only (free body, gravity, constant space-frame forces).  Symplectic and
-time-reversible: energy error bounded without drift, L along a common force direction and, for
-the free body, |L| and L_space conserved to rounding; |Λ| = 1 to rounding (never renormalised).
+Conservative scenes only (free body, gravity, constant space-frame forces; a gyrostat's rotors
+too).  Symplectic and time-reversible: energy error bounded without drift, L along a common force
+direction and, for the free body or gyrostat, |L| and L_space conserved to rounding; |Λ| = 1 to
+rounding (never renormalised).
 See ``rotlab.core.splitting`` for the scheme and the composition coefficients.
 """
 
@@ -15,8 +16,6 @@ from rotlab.scene.scene import TORQUE_FREE, Scene
 
 
 def _requires(scene: Scene) -> str | None:
-    if scene.rotor_momentum is not None:
-        return "splitting's exact axis rotations are a rigid body's without rotors: for a gyrostat use dop853, taylor, rkmk4 or rk4"
     if scene.has_work:
         return (
             "splitting needs a conservative scene (free body, gravity, constant space-frame forces), "
