@@ -72,7 +72,8 @@ def test_the_plots_show_the_whole_run_and_the_band_of_a_fast_motion(cli, tmp_pat
             batch = chunk.to_record_batch()
             if "TimeAxis:view_range" in batch.schema.names:
                 spans.append(batch.column("TimeAxis:view_range").to_pylist()[-1])
-    assert spans and all(span == [{"start": 0, "end": 100_000_000_000}] for span in spans), spans[:2]  # absolute, 0 to 100 s (ns)
+    # absolute, 0 to 100 s (ns), and the margin that keeps the last tick's label whole
+    assert spans and all(span == [{"start": 0, "end": round(100e9 * (1 + layout.TIME_MARGIN))}] for span in spans), spans[:2]
     policies = []
     for chunk in reader.stream().filter(content="/euler/theta", is_static=True).to_chunks():
         batch = chunk.to_record_batch()

@@ -395,3 +395,18 @@ def test_each_load_drawn_is_its_share_of_the_kernels_torque():
         total += drawn
     scale = np.max(np.abs(whole))
     assert np.max(np.abs(total - whole)) <= 16 * np.finfo(float).eps * scale
+
+
+def test_arrows_past_the_first_chunks_longest_still_grow_but_stay_in_the_view():
+    """``visuals.drawn``: linear up to the design length, then design·(1 + tanh(ln(ℓ/design))/2):
+    continuous, increasing, below 1.5 × design, direction kept."""
+    from rotlab.recording.visuals import drawn
+
+    direction = np.array([0.36, 0.48, 0.8])
+    magnitudes = np.array([0.0, 0.5, 1.0, 1.0 + 1e-12, 2.0, 10.0, 1e3, 1e12])
+    arrows = drawn(magnitudes[:, None] * direction, 2.0, 2.0)  # design reached at magnitude 1
+    lengths = np.linalg.norm(arrows, axis=1)
+    assert lengths[:3] == pytest.approx([0.0, 1.0, 2.0], abs=1e-15)
+    assert np.all(np.diff(lengths) > 0.0) and lengths[3] == pytest.approx(2.0, rel=1e-11) and np.all(lengths < 3.0)
+    assert lengths[-1] == pytest.approx(3.0, rel=1e-9)
+    assert np.allclose(arrows[1:] / lengths[1:, None], direction, atol=1e-15)

@@ -164,10 +164,15 @@ def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None,
 
 
 
+TIME_MARGIN = 0.04  # the time axis runs this fraction of the span past the end: the last tick's label ("+10s") fits
+
+
 def whole_span(span: tuple[float, float] | None) -> rrb.TimeAxis | None:
-    """A plot's time axis over ``span`` (s), not a window around the time cursor."""
+    """A plot's time axis over ``span`` (s), not a window around the time cursor, and a margin
+    (``TIME_MARGIN``) after it, so that the label of a tick at the run's end is not cut."""
     return None if span is None else rrb.TimeAxis(view_range=rrb.TimeRange(
-        start=rrb.TimeRangeBoundary.absolute(seconds=span[0]), end=rrb.TimeRangeBoundary.absolute(seconds=span[1])))
+        start=rrb.TimeRangeBoundary.absolute(seconds=span[0]),
+        end=rrb.TimeRangeBoundary.absolute(seconds=span[1] + TIME_MARGIN * (span[1] - span[0]))))
 
 
 def _view(p: Plot, span: tuple[float, float] | None = None) -> rrb.TimeSeriesView:

@@ -56,6 +56,8 @@ def run_report(run: RunSummary, scales: dict[str, tuple[float, str]] | None = No
         lines += [f"| {symbol} | {what} |" for symbol, what in SCENE_KEY.items()]
         if portrait_view.has_polhodes(scene):
             lines.append(f"| Phase portrait tab | {portrait_view.POLHODE_NOTE} |")
-        lines += ["", "Arrow scales: " + "; ".join(f"{symbol}: {value:.3g} {unit}" for symbol, (value, unit) in scales.items())]
+        lines += ["", "Arrow scales: " + "; ".join(f"{symbol}: {value:.3g} {unit}" for symbol, (value, unit) in scales.items())
+                  + ". Linear up to the longest arrow of the run's first chunk (length a₀), beyond it a₀(1 + tanh(ln(a/a₀))/2), at most 1.5 a₀: "
+                  "a vector that grows later stays in the view; the plots give its magnitude."]
     return "\n".join(lines) + "\n"
 

@@ -34,6 +34,20 @@ FIELD_LABEL = 1.2  # body sizes along "up": the middle of the field's arrow, whe
 AXES_LENGTH, L_LENGTH, OMEGA_LENGTH = 1.25, 1.55, 1.85  # body sizes: tips apart when ω ∥ L ∥ an axis
 TRAIL_PERIODS = 3.0
 SINGULAR_SIN = 1e-9
+LOAD_LENGTH = 0.9  # body sizes: the largest load arrow (of the loads' own bound)
+
+
+def drawn(vectors: np.ndarray, scale: float, design: float) -> np.ndarray:
+    """(n, 3) ``vectors`` × ``scale`` as drawn: linear up to the ``design`` length (the longest of
+    the run's first chunk, which set ``scale``), beyond it design·(1 + ½ tanh(ln(ℓ/design))): a
+    vector that outgrows the first chunk's still grows, up to 1.5 × ``design``, and stays in the
+    view (the plots carry its magnitude)."""
+    scaled = vectors * scale
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        length = np.linalg.norm(scaled, axis=1, keepdims=True)
+        longer = length > design
+        ratio = np.where(longer, length, design) / design
+        return np.where(longer, scaled / np.where(longer, length, 1.0) * design * (1.0 + 0.5 * np.tanh(np.log(ratio))), scaled)
 
 
 def degrees_wanted(scene) -> bool:
@@ -95,7 +109,7 @@ def load_series(traj: Trajectory, rows: np.ndarray | None = None) -> dict[str, t
     space = quat.rotate_to_space_array(unit_q, total_p)
     power = np.einsum("ij,ij->i", total_p, w_p)
     return {
-        layout.LOAD_TORQUE_BODY: (body, ["M₁", "M₂", "M₃"]),
+        layout.LOAD_TORQUE_BODY: (body, ["M_x", "M_y", "M_z"]),  # body axes x, y, z (load numbers are M1, F1 … in 3D)
         layout.LOAD_TORQUE_SPACE: (space, ["M_X", "M_Y", "M_Z"]),
         layout.LOAD_POWER: (power[:, None], ["P"]),
     }
@@ -224,8 +238,8 @@ def send_chunk(rec: rr.RecordingStream, traj: Trajectory, views, rows: slice, ns
     anchors: list[tuple[str, np.ndarray]] = []
     if views.geometry.field_up is not None:
         anchors.append(("g", np.broadcast_to(views.geometry.field_up * FIELD_LABEL * size, (n, 3))))
-    anchors += [("ω", views.omega_space[rows] * views.omega_scale * LABEL_BEYOND),
-                ("L", traj.L_space[rows] * views.L_scale * LABEL_BEYOND)]
+    anchors += [("ω", drawn(views.omega_space[rows], views.omega_scale, OMEGA_LENGTH * size) * LABEL_BEYOND),
+                ("L", drawn(traj.L_space[rows], views.L_scale, L_LENGTH * size) * LABEL_BEYOND)]
     loads = _load_arrows(traj, views, rows)
     for symbol, (_, _, _, anchor) in loads.items():
         anchors.append((symbol, _fill(anchor, loads[symbol][0])))
@@ -272,7 +286,8 @@ def _load_arrows(traj: Trajectory, views, rows: slice) -> dict[str, tuple[np.nda
             vectors = vectors * views.load_scales["force"]
         else:
             torque_p = loads_view.torques(traj.scene, view, traj.t[at], q_p, w_p)
-            vectors = quat.rotate_to_space_array(q_p / np.linalg.norm(q_p, axis=1, keepdims=True), torque_p) * views.load_scales["torque"]
+            vectors = drawn(quat.rotate_to_space_array(q_p / np.linalg.norm(q_p, axis=1, keepdims=True), torque_p), views.load_scales["torque"],
+                            LOAD_LENGTH * views.shape.size)
             origins = np.zeros_like(vectors)
         full_o, full_v = np.full((n, 3), np.nan), np.full((n, 3), np.nan)
         full_o[picked], full_v[picked] = origins, vectors
@@ -283,7 +298,7 @@ def _load_arrows(traj: Trajectory, views, rows: slice) -> dict[str, tuple[np.nda
 
 
 def load_scales(traj: Trajectory, size: float) -> dict[str, float]:
-    """Arrow length per N (forces) and per N·m (torques): the largest of each kind 0.9 body sizes
+    """Arrow length per N (forces) and per N·m (torques): the largest of each kind ``LOAD_LENGTH`` body sizes
     (torques from the loads' own bound at unit ω, see ``scene.loads.torque_scale``)."""
     from rotlab.scene.loads import torque_scale
 
@@ -291,8 +306,8 @@ def load_scales(traj: Trajectory, size: float) -> dict[str, float]:
     torques = [torque_scale(v.arrays) + v.arrays.damping * float(np.max(np.linalg.norm(traj.omega, axis=1), initial=0.0))
                for v in loads_view.load_views(traj.scene) if v.kind == "torque"]
     biggest_force, biggest_torque = max(forces, default=0.0), max(torques, default=0.0)
-    return {"force": 0.9 * size / biggest_force if biggest_force > 0 else 1.0,
-            "torque": 0.9 * size / biggest_torque if biggest_torque > 0 else 1.0}
+    return {"force": LOAD_LENGTH * size / biggest_force if biggest_force > 0 else 1.0,
+            "torque": LOAD_LENGTH * size / biggest_torque if biggest_torque > 0 else 1.0}
 
 
 def xyzw(q: np.ndarray) -> np.ndarray:

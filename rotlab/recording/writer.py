@@ -348,8 +348,8 @@ def _write_visual(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chun
     """The derived and visual series (everything not ``full_rate``) at the samples of ``traj``."""
     ns = _nanoseconds(traj.t)
     vectors = {
-        layout.OMEGA_ARROW: views.omega_space * views.omega_scale,
-        layout.L_ARROW: traj.L_space * views.L_scale,
+        layout.OMEGA_ARROW: visuals.drawn(views.omega_space, views.omega_scale, visuals.OMEGA_LENGTH * views.shape.size),
+        layout.L_ARROW: visuals.drawn(traj.L_space, views.L_scale, visuals.L_LENGTH * views.shape.size),
     }
     thin = {entity: values for entity, (values, _) in views.series.items() if not full_rate(entity)}
     for rows in _slices(traj.t.shape[0], chunk_rows):
