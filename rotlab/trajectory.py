@@ -16,6 +16,7 @@ import numpy as np
 
 from rotlab import invariants
 from rotlab.core import quaternion as quat
+from rotlab.core.state import STATE_SIZE
 from rotlab.events import EventLog
 from rotlab.methods.base import Solution
 from rotlab.rows import row_dot, row_norm, unit_rows
@@ -120,6 +121,10 @@ class Trajectory:
         return self._state[:, 7].copy() if self.scene.has_work else None
 
     @cached_property
+    def rotor_momenta(self) -> np.ndarray | None:  # (N, n) N·m·s, J Ω of each driven rotor (scenario order); None without
+        return self._state[:, STATE_SIZE:].copy() if self.scene.loads.drives is not None else None
+
+    @cached_property
     def total(self) -> np.ndarray:  # (N,) J, T + V
         return self._quantities[5]
 
@@ -193,6 +198,9 @@ class Trajectory:
             out["total"] = (self.total, "J")
         if self.work is not None:
             out["work"] = (self.work, "J")
+        if self.rotor_momenta is not None:
+            for k, name in enumerate(driven_rotor_names(self.scene.scenario)):
+                out[f"rotor_momentum_{name}"] = (self.rotor_momenta[:, k], "N·m·s (J Ω)")
         for name, drift in self.invariants.items():
             out[f"drift_{name}"] = (drift, "1 (relative)")
         if self.euler_angles is not None:
@@ -227,7 +235,7 @@ def concatenate(parts: list[Trajectory]) -> Trajectory:
 
 
 # The per-sample series of a Trajectory (None where the scene has no such series), drifts apart.
-_SERIES = ("quaternion", "omega", "L_body", "L_space", "kinetic", "potential", "work", "total", "euler_angles")
+_SERIES = ("quaternion", "omega", "L_body", "L_space", "kinetic", "potential", "work", "rotor_momenta", "total", "euler_angles")
 
 
 def _per_series(parts: list[Trajectory], combine: Callable[[list[np.ndarray]], np.ndarray]) -> Trajectory:
@@ -352,6 +360,8 @@ def _quantities(scene: Scene, state: np.ndarray):
     unit_q = unit_rows(q_p)
     I_w = w_p * scene.moments
     L_p = I_w if scene.rotor_momentum is None else I_w + scene.rotor_momentum  # a gyrostat's L = Iω + h
+    if scene.loads.drives is not None:  # and its driven rotors' momenta, the state's last columns
+        L_p = L_p + np.einsum("...j,jk->...k", state[..., STATE_SIZE:], scene.loads.drives.axes)
     L_space = quat.rotate_to_space_array(unit_q, L_p)
     kinetic = 0.5 * row_dot(w_p, I_w)
     potential = potential_energy(scene.loads, unit_q) if scene.has_potential else None
@@ -385,3 +395,8 @@ def _drifts(scene: Scene, q_p, L_p, L_space, invariant_energy, reference: Refere
     series = invariants.Series(q_p, L_p, L_space, invariant_energy, reference.invariant_energy, reference.L_p, reference.L_space,
                                reference.energy_scale, reference.L_norm, scene.field_direction, scene.symmetry_axis)
     return invariants.drifts(scene.invariants, series)
+
+
+def driven_rotor_names(scenario) -> list[str]:
+    """Each driven rotor's name: its own, else its place in ``[[rotors]]`` (1, 2, …)."""
+    return [rotor.name or str(k + 1) for k, rotor in enumerate(scenario.rotors) if rotor.torque is not None]

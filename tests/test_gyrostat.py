@@ -166,3 +166,118 @@ def test_the_recording_draws_each_wheel_on_its_axis_and_the_report_lists_them(tm
     assert "- rotor 1: axis [1.0, 1.0, 0.0] (body frame), J = 0.01 kg·m², Ω = 60 rad/s (572.958 rpm)" in report
     assert "- rotor pitch: axis [0.0, 0.0, 2.0] (body frame), J Ω = -0.4 N·m·s" in report
     assert "rotors' momentum h: [ 0.424264  0.424264 -0.4     ] N·m·s" in report
+
+
+# ---- driven rotors: J Ω̇ = u, the body feels −u â; their momenta are state columns ----------------
+
+DRIVEN = {"name": "drive", "axis": [0.0, 1.0, 1.0], "inertia": 0.02, "spin": 5.0, "torque": "0.05*sin(2*t) - k*omega[1]",
+          "constants": {"k": 0.01}}
+DRIVEN_AXIS = np.array([0.0, 1.0, 1.0]) / np.sqrt(2.0)
+
+
+def _driven(method: str, **solver):
+    return parse_scenario({"body": {"inertia_tensor": TENSOR.tolist()}, "rotors": [ROTORS[0], DRIVEN],
+                           "initial": {"omega": OMEGA0.tolist(), "quaternion": Q0.tolist()},
+                           "time": {"end": END, "sample_rate": 20}, "solver": {"method": method, **solver}}, source="driven")
+
+
+def _driven_reference(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(ω, h_drive) at ``t`` from I ω̇ = (I ω + h) × ω − u â, ḣ_drive = u (user's frame), independently of rotlab."""
+    constant = ROTORS[0]["inertia"] * ROTORS[0]["spin"] * np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
+
+    def f(time, y):
+        w, h = y[:3], y[3]
+        u = 0.05 * np.sin(2.0 * time) - 0.01 * w[1]
+        total = constant + h * DRIVEN_AXIS
+        return np.concatenate([np.linalg.solve(TENSOR, np.cross(TENSOR @ w + total, w) - u * DRIVEN_AXIS), [u]])
+
+    sol = solve_ivp(f, (0.0, END), np.concatenate([OMEGA0, [0.02 * 5.0]]), method="DOP853", rtol=1e-13, atol=1e-15, t_eval=t)
+    return sol.y[:3].T, sol.y[3]
+
+
+@pytest.mark.parametrize("method, solver, bound", [
+    ("dop853", {"rtol": 1e-12, "atol": 1e-14}, 5e-11),
+    ("rk4", {"step": 1e-3}, 3e-12),
+    ("rkmk4", {"step": 1e-3}, 3e-12),
+])
+def test_a_driven_rotor_matches_an_independent_integration_and_keeps_l(method, solver, bound):
+    """ω and the rotor's momentum against the reference; |L| and L_space (the drive is internal)
+    and T − W (W: the drive's work on the body) kept to ``bound``."""
+    traj = rotlab.simulate(_driven(method, **solver))
+    assert traj.stats.failure is None and traj._state.shape[1] == 9
+    omega, h = _driven_reference(traj.t)
+    assert np.max(np.abs(traj.omega - omega)) <= bound and np.max(np.abs(traj.rotor_momenta[:, 0] - h)) <= bound
+    drift = traj.max_drift()
+    assert set(drift) == {"energy", "quaternion_norm", "L_norm", "L_space"}
+    assert max(drift["energy"], drift["L_norm"], drift["L_space"]) <= bound
+    assert np.ptp(traj.rotor_momenta[:, 0]) > 0.05  # the drive moved it
+
+
+@pytest.mark.parametrize("method", ["taylor", "splitting", "dmv", "exact"])
+def test_methods_without_a_driven_rotors_state_refuse_it_in_one_line(method):
+    with pytest.raises(InputError) as refused:
+        rotlab.simulate(_driven(method))
+    assert "\n" not in str(refused.value) and "rotor" in str(refused.value)
+
+
+def test_the_shipped_wheel_slew_turns_the_body_90_degrees_and_stops_it_and_its_wheels():
+    """configs/wheel_slew.toml: three wheels under a PD law, rest to rest, 90° about z in 60 s;
+    the wheels give back what they took (L = I ω + h stays 0 in space)."""
+    traj = rotlab.simulate(CONFIGS / "wheel_slew.toml")
+    q = traj.quaternion[-1] * np.sign(traj.quaternion[-1, 0])
+    assert q[1:3] == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert np.degrees(2.0 * np.arctan2(q[3], q[0])) == pytest.approx(90.0, abs=0.01)
+    assert np.linalg.norm(traj.omega[-1]) < 1e-5 and np.max(np.abs(traj.rotor_momenta[-1])) < 1e-6
+    assert np.max(np.abs(traj.rotor_momenta[:, 2])) > 0.01  # the z wheel took the slew's momentum
+    assert np.max(np.linalg.norm(traj.L_space, axis=1)) < 1e-12
+    assert np.max(np.abs(traj.kinetic - traj.work)) < 1e-10  # T − W = 0: the drives gave the body its energy
+
+
+def test_a_drive_that_is_not_finite_stops_the_run_naming_the_rotor():
+    from rotlab.errors import RunFailure
+
+    scenario = parse_scenario({"body": {"principal_moments": [1, 2, 3]}, "initial": {"omega": [0.1, 0.2, 0.3]}, "time": {"end": 3.0},
+                               "rotors": [{"axis": [0, 0, 1], "momentum": 0.0, "torque": "1/(t - 1)"}], "solver": {"method": "rk4"}},
+                              source="pole")
+    with pytest.raises(RunFailure) as stopped:
+        rotlab.simulate(scenario)
+    assert "rotors[0].torque = '1/(t - 1)' is not finite at t = 1 s" in str(stopped.value)
+    kept = stopped.value.trajectory
+    assert kept.t[-1] < 1.0 and np.all(np.isfinite(kept._state))
+
+
+def test_a_driven_rotor_is_recorded_and_exported(tmp_path, cli):
+    from rotlab.recording.reader import read_series
+
+    path = write_rotor_recording(tmp_path)
+    t, momenta = read_series(path, "/rotors/momentum")
+    traj = rotlab.simulate(_driven("rk4", step=1e-3))
+    assert np.array_equal(momenta[:, 0], traj.rotor_momenta[:, 0])  # every sample (the state's column)
+    _, torques = read_series(path, "/rotors/torque")
+    assert torques[:, 0] == pytest.approx(0.05 * np.sin(2.0 * t) - 0.01 * traj.omega[:: len(traj.t) // len(t), 1][: len(t)], abs=1e-12)
+    result = cli("export", str(path), "-o", str(tmp_path / "run.csv"))
+    assert result.exit_code == 0, result.output
+    import pandas as pd
+
+    table = pd.read_csv(tmp_path / "run.csv", comment="#")
+    assert np.array_equal(table["rotor_momentum_drive"].to_numpy(), traj.rotor_momenta[:, 0])
+
+
+def write_rotor_recording(tmp_path):
+    return rotlab.save(tmp_path / "driven.rrd", rotlab.simulate(_driven("rk4", step=1e-3)))
+
+
+@pytest.mark.parametrize("rotor, key", [
+    ({"axis": [1, 0, 0], "momentum": 1.0, "torque": "foo*t"}, "rotors[0].torque"),
+    ({"axis": [1, 0, 0], "momentum": 1.0, "constants": {"k": 1.0}}, "rotors[0].constants"),
+    ({"axis": [1, 0, 0], "momentum": 1.0, "torque": {"type": "pd_control", "kp": -1.0, "kd": 1.0}}, "rotors[0].torque"),
+])
+def test_a_bad_drive_is_one_line_naming_its_key(write, cli, rotor, key):
+    import json
+
+    body = "\n".join(f"{k} = {json.dumps(v) if not isinstance(v, dict) else '{ ' + ', '.join(f'{a} = {json.dumps(b)}' for a, b in v.items()) + ' }'}"
+                     for k, v in rotor.items())
+    path = write("bad.toml", f"[body]\nprincipal_moments = [1, 2, 3]\n[time]\nend = 1.0\n[[rotors]]\n{body}\n")
+    result = cli("validate", str(path))
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1 and key in lines[0], result.output

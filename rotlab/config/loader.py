@@ -16,7 +16,7 @@ from typing import Any, Mapping, Sequence
 
 from pydantic import BaseModel, ValidationError
 
-from rotlab.config.models import LOAD_MODELS, ONE_QUANTITY, Scenario
+from rotlab.config.models import DRIVE_TAGS, LOAD_MODELS, ONE_QUANTITY, Scenario
 from rotlab.config.paths import drop_siblings, model_defaults, set_at
 from rotlab.errors import InputError
 
@@ -212,10 +212,13 @@ def _shown(value: Any) -> str:
 
 
 def _clean_loc(loc: tuple[Any, ...]) -> tuple[Any, ...]:
-    """Drop pydantic's union-tag entries (loads.1.torque.frame → loads.1.frame)."""
+    """Drop pydantic's union-tag entries: a load's type (loads.1.torque.frame → loads.1.frame) and
+    a rotor's drive (rotors.0.torque.pd_control.kp → rotors.0.torque.kp)."""
     out: list[Any] = []
     for k, part in enumerate(loc):
-        if k > 0 and isinstance(loc[k - 1], int) and part in LOAD_MODELS:
+        if k > 1 and loc[k - 2] == "loads" and isinstance(loc[k - 1], int) and part in LOAD_MODELS:
+            continue
+        if k > 2 and loc[k - 3] == "rotors" and loc[k - 1] == "torque" and part in DRIVE_TAGS:
             continue
         out.append(part)
     return tuple(out)

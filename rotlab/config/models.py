@@ -9,6 +9,8 @@ from typing import Annotated, Any, Literal, Mapping, Self, Union
 
 import numpy as np
 from pydantic import (
+    Discriminator,
+    Tag,
     AfterValidator,
     BaseModel,
     BeforeValidator,
@@ -655,12 +657,19 @@ class Event(_Model):
         return out
 
 
+DRIVE_TAGS = ("formula", "pd_control")  # how a rotor's drive is given: a formula string, or a controller table
+Drive = Annotated[Union[Annotated[str, Tag("formula")], Annotated[PDControl, Tag("pd_control")]],
+                  Discriminator(lambda v: "formula" if isinstance(v, str) else "pd_control" if isinstance(v, (dict, PDControl)) else None,
+                                custom_error_type="drive", custom_error_message='must be a formula "..." or { type = "pd_control", … }')]
+
+
 class Rotor(_Model):
-    """A rotor (a wheel) spinning at a constant rate relative to the body about an axis fixed in
-    it: the body becomes a gyrostat with the embedded momentum h = Σ J Ω â (body frame), and
-    I ω̇ + ω × (I ω + h) = M (Zhukovsky–Volterra).  ``[body]``'s inertia is the whole gyrostat's,
-    each rotor counted as if locked to the body.  Give ``inertia`` (J, about the axis) and
-    ``spin`` (Ω, rad/s; or ``spin_rpm``), or ``momentum`` (J Ω, N·m·s) alone."""
+    """A rotor (a wheel) spinning relative to the body about an axis fixed in it: the body becomes
+    a gyrostat with the rotors' momentum h = Σ J Ω â (body frame), and
+    I ω̇ + ω × (I ω + h) = M − ḣ (Zhukovsky–Volterra for constant spins).  ``[body]``'s inertia is
+    the whole gyrostat's, each rotor counted as if locked to the body.  Give ``inertia`` (J, about
+    the axis) and ``spin`` (Ω, rad/s; or ``spin_rpm``), or ``momentum`` (J Ω, N·m·s) alone: the
+    spin, constant, or the initial one of a rotor driven by ``torque`` (d(J Ω)/dt = u)."""
 
     @model_validator(mode="before")
     @classmethod
@@ -681,6 +690,10 @@ class Rotor(_Model):
     spin_rpm: Real | None = None  # rev/min relative to the body: stored converted, as ``spin``
     spin: Real | None = None  # Ω, rad/s relative to the body, right-handed about ``axis``
     momentum: Real | None = None  # J Ω, N·m·s, instead of inertia and spin
+    # a driven rotor: its drive's torque u (N·m), J Ω̇ = u, the body feels −u â: a formula, or a controller,
+    # { type = "pd_control", target…, kp, kd, max_torque }, whose body torque M the rotor supplies its share of (u = −â·M)
+    torque: Drive | None = None
+    constants: dict[str, Real] = {}  # names the ``torque`` formula may use
     position: Vec3 | None = None  # m, body frame, where the recording draws it (no effect on the motion)
 
     @model_validator(mode="after")
@@ -694,7 +707,19 @@ class Rotor(_Model):
         elif self.inertia is None or self.spin is None:
             missing = "inertia" if self.inertia is None else "spin"
             raise _invalid(missing, "a rotor needs inertia (kg·m², about its axis) and spin (rad/s, or spin_rpm), or momentum (N·m·s)")
+        if isinstance(self.torque, str):
+            _check_formula_inputs((0.0, 0.0, 1.0), self.constants)
+            self.program()
+        elif self.constants:
+            raise _invalid("constants", "constants are for a driven rotor's torque formula: give torque = \"...\" or remove them")
         return self
+
+    def program(self) -> tuple[expressions.Program, int]:
+        """The drive's torque formula as (program, stack depth)."""
+        try:
+            return expressions.parse_formula(self.torque, self.constants)  # type: ignore[arg-type]
+        except expressions.FormulaError as exc:
+            raise _invalid("torque", str(exc)) from None
 
     def momentum_vector(self) -> np.ndarray:
         """h of this rotor, body frame (N·m·s): J Ω â."""
@@ -915,9 +940,11 @@ class Scenario(_Model):
             seen.add(event.name)
         return self
 
-    def rotor_momentum(self) -> np.ndarray:
-        """h = Σ of the rotors' J Ω â, body frame (N·m·s; zero without rotors)."""
-        return np.sum([r.momentum_vector() for r in self.rotors], axis=0) if self.rotors else np.zeros(3)
+    def rotor_momentum(self, driven: bool = False) -> np.ndarray:
+        """h = Σ J Ω â of the rotors at constant spin (``driven``: of the driven ones, at t0), body
+        frame (N·m·s; zero without)."""
+        chosen = [r.momentum_vector() for r in self.rotors if (r.torque is not None) == driven]
+        return np.sum(chosen, axis=0) if chosen else np.zeros(3)
 
     def rotor_lines(self) -> list[str]:
         """The rotors, one Markdown list line each (body frame), and their momentum h (none without rotors)."""
@@ -925,9 +952,12 @@ class Scenario(_Model):
         for k, rotor in enumerate(self.rotors):
             given = (f"J = {rotor.inertia:.6g} kg·m², Ω = {rotor.spin:.6g} rad/s ({rotor.spin / RPM:.6g} rpm)"
                      if rotor.momentum is None else f"J Ω = {rotor.momentum:.6g} N·m·s")
-            lines.append(f"- rotor {rotor.name or k + 1}: axis {list(rotor.axis)} (body frame), {given}")
+            drive = "" if rotor.torque is None else (f"; driven: u = {rotor.torque} N·m" if isinstance(rotor.torque, str) else
+                                                     f"; driven by pd_control toward {list(rotor.torque.target)}")
+            lines.append(f"- rotor {rotor.name or k + 1}: axis {list(rotor.axis)} (body frame), {given}{drive}")
         if self.rotors:
-            lines.append(f"- rotors' momentum h: {np.array2string(self.rotor_momentum(), precision=6)} N·m·s, body frame (L = I ω + h)")
+            h = self.rotor_momentum() + self.rotor_momentum(driven=True)
+            lines.append(f"- rotors' momentum h: {np.array2string(h, precision=6)} N·m·s at t0, body frame (L = I ω + h)")
         return lines
 
     @model_validator(mode="after")

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, rhs_called, rhs_llvm_inlined, store_row
+from rotlab.core.dynamics import all_finite, count_at_or_below, next_piece, rhs_called, rhs_llvm_inlined, state_size, store_row
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -45,12 +45,13 @@ def initial_step(t, y, f0, t_end, rtol, atol, model):
     d1 = _rms_scaled(f0, y, rtol, atol)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, t_end - t)
-    y1 = np.empty(STATE_SIZE)  # loops, not array expressions: those compile NumPy's ufunc machinery
-    f1 = np.empty(STATE_SIZE)
-    for m in range(STATE_SIZE):
+    n = state_size(model)
+    y1 = np.empty(n)  # loops, not array expressions: those compile NumPy's ufunc machinery
+    f1 = np.empty(n)
+    for m in range(n):
         y1[m] = y[m] + h0 * f0[m]
     rhs_called(t + h0, y1, f1, model)
-    for m in range(STATE_SIZE):
+    for m in range(n):
         f1[m] -= f0[m]
     d2 = _rms_scaled(f1, y, rtol, atol) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
@@ -74,7 +75,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     a blow-up take the whole step budget.  A non-finite f(t, y) at a (re)start stops the run.
     Returns (status, next sample index, t, next trial step).
     """
-    n = STATE_SIZE
+    n = state_size(model)  # (8; more with driven rotors)
     K = np.empty((16, n))
     y_new = np.empty(n)
     tmp = np.empty(n)
@@ -110,23 +111,23 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
         at_break = t_new == limit and limit != t_end
         t_last = np.nextafter(t_new, -np.inf) if at_break else t_new
         for s in range(1, _STAGES + 1):  # the last (FSAL) stage is f(t_last, y_new): A[12, :12] = B
-            _stage_state(s, h, y, K, tmp)
+            _stage_state(s, h, y, K, tmp, n)
             rhs_llvm_inlined(t_last if s == _STAGES else min(t + _C[s] * h, t_last), tmp, K[s], model)
-        for m in range(STATE_SIZE):
+        for m in range(n):
             y_new[m] = tmp[m]
         counters[2] += _STAGES
-        for m in range(STATE_SIZE):
+        for m in range(n):
             E5v[m] = 0.0
             E3v[m] = 0.0
         for j in range(_STAGES + 1):
             c5 = _E5[j]
             c3 = _E3[j]
-            for m in range(STATE_SIZE):
+            for m in range(n):
                 E5v[m] += c5 * K[j, m]
                 E3v[m] += c3 * K[j, m]
         e5 = 0.0
         e3 = 0.0
-        for m in range(STATE_SIZE):
+        for m in range(n):
             sc = atol + rtol * max(abs(y[m]), abs(y_new[m]))
             e5 += (E5v[m] / sc) ** 2
             e3 += (E3v[m] / sc) ** 2
@@ -148,7 +149,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
                     if times[i] == t_new:
                         store_row(out, i, y_new)
                     else:
-                        _dense_eval(F, y, (times[i] - t) / h, out[i])
+                        _dense_eval(F, y, (times[i] - t) / h, out[i], n)
                     i += 1
             for m in range(n):
                 y[m] = y_new[m]
@@ -173,18 +174,18 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
 
 
 @njit(cache=True, forceinline=True)
-def _stage_state(s, h, y, K, tmp):
+def _stage_state(s, h, y, K, tmp, n):
     """tmp ← y + h Σ_{j<s} a_sj K[j], the state at which stage s evaluates f (its time is
     t + c_s h, capped at the step's ``t_last``); for s = 12 (a_12j = b_j) that is y_new.
     Model-free, so typed once per process; ``rhs_llvm_inlined`` follows it at each site: inlined
     by numba into one stage function per model type, ``rhs`` would be typed twice (here and for
     ``rk4``/``rkmk4``), which multiplies compile time per model type."""
-    for m in range(STATE_SIZE):
+    for m in range(n):
         tmp[m] = y[m]
     for j in range(s):
         a = _A[s, j] * h
         if a != 0.0:
-            for m in range(STATE_SIZE):
+            for m in range(n):
                 tmp[m] += a * K[j, m]
 
 
@@ -192,28 +193,29 @@ def _stage_state(s, h, y, K, tmp):
 def _dense_coefficients(t, h, t_last, y, y_new, K, F, tmp, model):
     """Stages 14–16 and the interpolant coefficients F (7 × n) of the step [t, t + h]
     (stage times capped at ``t_last``, the left limit at a breakpoint)."""
+    n = state_size(model)
     for s in range(_STAGES + 1, 16):
-        _stage_state(s, h, y, K, tmp)
+        _stage_state(s, h, y, K, tmp, n)
         rhs_llvm_inlined(min(t + _C[s] * h, t_last), tmp, K[s], model)
-    for m in range(STATE_SIZE):
+    for m in range(n):
         dy = y_new[m] - y[m]
         F[0, m] = dy
         F[1, m] = h * K[0, m] - dy
         F[2, m] = 2.0 * dy - h * (K[_STAGES, m] + K[0, m])
     for r in range(4):
-        for m in range(STATE_SIZE):
+        for m in range(n):
             F[3 + r, m] = 0.0
         for j in range(16):
             d = _D[r, j] * h
             if d != 0.0:
-                for m in range(STATE_SIZE):
+                for m in range(n):
                     F[3 + r, m] += d * K[j, m]
 
 
-@njit(cache=True)
-def _dense_eval(F, y, x, out):
+@njit(cache=True, forceinline=True)
+def _dense_eval(F, y, x, out, n):
     """The interpolant at x = (τ − t)/h ∈ [0, 1], u = 1 − x:
     y + x (F₀ + u (F₁ + x (F₂ + u (F₃ + x (F₄ + u (F₅ + x F₆))))))."""
     u = 1.0 - x
-    for m in range(STATE_SIZE):
+    for m in range(n):
         out[m] = y[m] + x * (F[0, m] + u * (F[1, m] + x * (F[2, m] + u * (F[3, m] + x * (F[4, m] + u * (F[5, m] + x * F[6, m]))))))

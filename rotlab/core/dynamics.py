@@ -3,7 +3,8 @@
 State y = (Λ, ω, W), 8 components:
     Λ̇ = ½ Λ ∘ (0, ω)                                   (Poisson, scalar-first quaternion)
     A ṗ = (B − C) q r + M1,  B q̇ = (C − A) r p + M2,  C ṙ = (A − B) p q + M3   (Euler)
-    (a gyrostat adds h × ω to M: I ω̇ + ω × (I ω + h) = M, h the rotors' momentum, body frame)
+    (a gyrostat adds h × ω to M: I ω̇ + ω × (I ω + h) = M − ḣ, h the rotors' momentum, body frame;
+    a driven rotor's momentum J Ω is a state column after W, d(J Ω)/dt = u its drive's torque)
     Ẇ = M_nc · ω                                        (work of the non-conservative loads)
 The state layout is ``rotlab.core.state``; the loads reach ``rhs`` as one value, the scene's
 ``Model`` (``rotlab.scene.loads``), and only ``rotlab.core.torques`` reads its load fields (a
@@ -30,9 +31,9 @@ from numba import njit, types
 from numba.extending import overload
 
 from rotlab.core.state import P0, Q0, STATE_SIZE, WORK
-from rotlab.core.torques import conservative_torque, nonconservative_torque
+from rotlab.core.torques import conservative_torque, drive_rotors, nonconservative_torque
 
-__all__ = ["STATE_SIZE", "all_finite", "euler_coefficients", "next_piece", "rhs", "rhs_called", "rhs_llvm_inlined"]
+__all__ = ["STATE_SIZE", "all_finite", "euler_coefficients", "next_piece", "rhs", "rhs_called", "rhs_llvm_inlined", "state_size"]
 
 
 def euler_coefficients(moments: np.ndarray) -> np.ndarray:
@@ -51,6 +52,7 @@ def rhs(t, y, dy, model):
     euler = model.euler
     cx, cy, cz = with_gyrostatic(conservative_torque(y, model), p, q, r, model.rotors)
     nx, ny, nz = nonconservative_torque(t, y, model)
+    cx, cy, cz, nx, ny, nz = drive_rotors(t, y, dy, (cx, cy, cz, nx, ny, nz), model.drives)
     dy[Q0] = -0.5 * (q1 * p + q2 * q + q3 * r)
     dy[Q0 + 1] = 0.5 * (q0 * p + q2 * r - q3 * q)
     dy[Q0 + 2] = 0.5 * (q0 * q + q3 * p - q1 * r)
@@ -77,6 +79,19 @@ def _with_gyrostatic(torque, p, q, r, rotors):
                 torque[2] + (rotors[0] * q - rotors[1] * p))
 
     return impl
+
+
+def state_size(model):
+    """The state's length for ``model``: ``STATE_SIZE``, plus one column per driven rotor (a
+    compile-time constant without them)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(state_size, inline="always")
+def _state_size(model):
+    if isinstance(model.types[model.fields.index("drives")], types.NoneType):
+        return lambda model: STATE_SIZE
+    return lambda model: STATE_SIZE + model.drives.axes.shape[0]
 
 
 @njit(cache=True, forceinline=True)

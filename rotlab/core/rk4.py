@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, count_at_or_below, next_piece, rhs_llvm_inlined
+from rotlab.core.dynamics import count_at_or_below, next_piece, rhs_llvm_inlined, state_size
 from rotlab.core.kernel_status import NONFINITE, OK, end_sample
 
 
@@ -28,7 +28,7 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
     sample whose interval failed.  ``model``: the scene's ``rotlab.scene.loads.Model`` (its
     ``breaks``: sorted load breakpoints, may be empty).
     """
-    n = STATE_SIZE
+    n = state_size(model)  # (8; more with driven rotors)
     k1 = np.empty(n)
     k2 = np.empty(n)
     k3 = np.empty(n)

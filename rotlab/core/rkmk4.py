@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, count_at_or_below, next_piece, rhs_llvm_inlined
+from rotlab.core.dynamics import count_at_or_below, next_piece, rhs_llvm_inlined, state_size
 from rotlab.core.kernel_status import NONFINITE, OK, end_sample
 from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
 
@@ -74,7 +74,7 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, model):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, ``substeps`` RKMK4
     steps per sample interval (contract of ``rotlab.core.rk4``, steps split at the load
     breaks in the same way)."""
-    n = STATE_SIZE
+    n = state_size(model)  # (8; more with driven rotors)
     k1 = np.empty(n)
     k2 = np.empty(n)
     k3 = np.empty(n)

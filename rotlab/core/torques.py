@@ -330,6 +330,47 @@ def expression_torque(t, y, rows, fn, axes, axes_q, moments):
     return nx, ny, nz
 
 
+def drive_rotors(t, y, dy, torques, drives):
+    """A gyrostat's driven rotors (``rotlab.scene.loads.Drives``): dy[STATE_SIZE + j] = u_j, their
+    drives' torques, and ``torques`` = (conservative, non-conservative) body torques with the
+    rotors' share added: h(t) × ω (workless; h = Σ J Ω_j â_j from the state) and −Σ u_j â_j (the
+    drives' reaction, which does work).  ``torques`` itself without driven rotors (None)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(drive_rotors, inline="always")
+def _drive_rotors(t, y, dy, torques, drives):
+    if isinstance(drives, types.NoneType):
+        return lambda t, y, dy, torques, drives: torques
+
+    def impl(t, y, dy, torques, drives):
+        ex = drives.ex
+        return rotor_drives(t, y, dy, torques, ex.rows, ex.fn, ex.axes, ex.axes_q, ex.moments, drives.offset, drives.axes)
+
+    return impl
+
+
+@njit(cache=True)
+def rotor_drives(t, y, dy, torques, rows, fn, axes, axes_q, moments, offset, rotor_axes):
+    """``drive_rotors`` of the drives' formula rows ``rows`` (programs' loads ``offset`` …) and
+    unit axes ``rotor_axes`` (principal frame).  Called, not inlined (a formula's typing is costly)."""
+    cx, cy, cz, nx, ny, nz = torques
+    p, q, r = y[P0], y[P0 + 1], y[P0 + 2]
+    hx = hy = hz = 0.0
+    for j in range(rotor_axes.shape[0]):
+        u = call_formulas(fn, offset + j, 0, expression_inputs(t, y, rows, j, axes, axes_q, moments))
+        dy[STATE_SIZE + j] = u
+        h = y[STATE_SIZE + j]
+        ax, ay, az = rotor_axes[j, 0], rotor_axes[j, 1], rotor_axes[j, 2]
+        hx += h * ax
+        hy += h * ay
+        hz += h * az
+        nx -= u * ax
+        ny -= u * ay
+        nz -= u * az
+    return cx + (hy * r - hz * q), cy + (hz * p - hx * r), cz + (hx * q - hy * p), nx, ny, nz
+
+
 _forces_called = njit(cache=True)(forces_torque)
 _terms_called = njit(cache=True)(terms_torque)
 _tables_called = njit(cache=True)(tables_torque)
@@ -378,6 +419,17 @@ def torque_samples(t, q, w, model, out):
         for i in range(3):
             y[P0 + i] = w[k, i]
         out[k, 0], out[k, 1], out[k, 2] = torque_at(t[k], y, model)
+
+
+@njit(cache=True)
+def drive_torques(t, states, model, out):
+    """out[k, j] = u_j, driven rotor j's drive torque (N·m) at sample k (time t[k], principal-frame
+    state ``states[k]``, the rotors' momenta included)."""
+    dy = np.zeros(states.shape[1])
+    for k in range(t.shape[0]):
+        drive_rotors(t[k], states[k], dy, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0), model.drives)
+        for j in range(out.shape[1]):
+            out[k, j] = dy[STATE_SIZE + j]
 
 
 # ---- Taylor series of the loads (``rotlab.core.taylor``): coefficients in τ = time − t -----------

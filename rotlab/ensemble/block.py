@@ -60,6 +60,8 @@ def unsupported_scene(scene: Scene) -> str | None:
         return "a formula load (expression) cannot run in the parallel ensemble kernel"
     if scene.loads.user is not None:
         return "a Python torque function cannot run in the parallel ensemble kernel"
+    if scene.loads.drives is not None:
+        return "a driven rotor's momentum is a state column the ensemble kernels do not carry"
     if scene.scenario.events:
         return "events are located on each case's own run, not in the parallel ensemble kernel"
     return None

@@ -84,7 +84,7 @@ def own_model(model):
     """A copy of ``model``'s arrays for one thread: numba counts references to an array passed to a
     function with an atomic write, and two threads passing the same array contend for its cache line."""
     return Model(own(model.euler), own(model.breaks), own(model.forces), own(model.terms), own(model.tables),
-                 own(model.table_t), own(model.table_v), model.damping, model.expressions, model.user, own(model.rotors))
+                 own(model.table_t), own(model.table_v), model.damping, model.expressions, model.user, own(model.rotors), model.drives)
 
 
 @njit(cache=True)

@@ -116,8 +116,8 @@ class FixedStepMethod:
 
     def _probe(self, scene: Scene, t0: float, span: float, steps: int, order: int) -> np.ndarray:
         times = np.array([t0, t0 + span])
-        out = np.empty((2, 8))
         y = initial_state(scene)
+        out = np.empty((2, y.shape[0]))
         self.kernel(y, times, out, 1, steps, steps, scene.model, *self.kernel_args(scene, order))
         return y
 

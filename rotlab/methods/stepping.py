@@ -156,7 +156,7 @@ def run_chunks(
     control = current_control()
     n = t.shape[0]
     streamed = control.consumer is not None
-    out = np.empty((min(n, WINDOW + 1) if streamed else n, STATE_SIZE))
+    out = np.empty((min(n, WINDOW + 1) if streamed else n, y.shape[0]))  # (STATE_SIZE, and a column per driven rotor)
     out[0] = y
     # the window: global samples [base, hi); streamed, out row 0 is sample base (the array is reused),
     # whole, out row k is sample k.  Both runs see the same windows: an adaptive kernel ends its

@@ -28,7 +28,7 @@ def log_events(rec: rr.RecordingStream, events: dict[str, EventLog], axis: np.nd
             continue
         path = f"{layout.EVENTS}/{name}"
         values, names = _marked(log)
-        colors = [style.EVENT_MARKERS[(k + j) % len(style.EVENT_MARKERS)] for j in range(len(names))]  # the first: the event's own
+        colors = [style.HUES[(k + j) % len(style.HUES)] for j in range(len(names))]  # the first: the event's own
         rec.log(path, rr.SeriesPoints(names=[style.drawable(n) for n in names], marker_sizes=[MARKER_SIZE] * len(names), colors=colors),
                 static=True)
         ns = np.round(log.t * 1e9).astype(np.int64).astype("timedelta64[ns]")  # as the run's timeline (writer._nanoseconds)
@@ -37,7 +37,7 @@ def log_events(rec: rr.RecordingStream, events: dict[str, EventLog], axis: np.nd
             rec.log(f"{layout.SECTIONS}/{name}", rr.Points2D(log.values[:, :2], radii=SECTION_RADIUS, colors=style.SECTION), static=True)
         unit_q = log.quaternion / np.linalg.norm(log.quaternion, axis=1, keepdims=True)
         tips = quat.rotate_to_space_array(unit_q, np.broadcast_to(reach * axis, (log.count, 3)))
-        rec.log(f"{layout.EVENTS_3D}/{name}", rr.Points3D(tips, radii=MARKER_RADIUS_3D, colors=style.EVENT_MARKERS[k % len(style.EVENT_MARKERS)]),
+        rec.log(f"{layout.EVENTS_3D}/{name}", rr.Points3D(tips, radii=MARKER_RADIUS_3D, colors=style.HUES[k % len(style.HUES)]),
                 static=True)
 
 

@@ -52,12 +52,15 @@ def recorded_trajectory(recording: Path):
                                          "export it from Python with traj.to_dataframe()")
     scene = build_scene(parse_scenario(saved["scenario"], source=str(recording)))
     t = _sample_times(scene.scenario.time.sample_times(), t)
-    state = np.zeros((t.shape[0], 8))
+    state = np.zeros((t.shape[0], scene.state0.shape[0]))
     state[:, 0:4] = q if scene.is_principal else quat.multiply_array(q, scene.axes_quaternion)  # Λ_P = Λ_U ∘ Λ_axes
     state[:, 4:7] = omega if scene.is_principal else omega @ scene.axes  # ω_P = axesᵀ ω_U
     if scene.has_work:
         _, work = read_series(recording, layout.WORK)
         state[:, 7] = work[:, 0]
+    if scene.loads.drives is not None:  # the driven rotors' momenta, the state's last columns
+        _, momenta = read_series(recording, layout.ROTOR_MOMENTUM)
+        state[:, 8:] = momenta
     stats = RunStats(method="recorded", reason=f"read from {recording}", steps=0, rejected_steps=0, rhs_evaluations=0, seconds=0.0)
     return Trajectory(scene, stats, t, state, euler_angles=scene.scenario.output.euler_angles)
 

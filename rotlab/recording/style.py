@@ -51,8 +51,9 @@ INVARIANT: dict[str, Color] = {
     "L_symmetry": (240, 80, 200),
 }
 
-# events: the values recorded at each occurrence, one hue each (not red/green/blue: those mean components)
-EVENT_MARKERS: list[Color] = [(255, 160, 30), (175, 100, 245), (60, 200, 210), (240, 240, 80), (240, 80, 200), (235, 235, 235)]
+# one hue per series where several are not components (not red/green/blue, which mean x, y, z): the values an
+# event records, the driven rotors
+HUES: list[Color] = [(255, 160, 30), (175, 100, 245), (60, 200, 210), (240, 240, 80), (240, 80, 200), (235, 235, 235)]
 SECTION: Color = (90, 215, 230)  # the points of a Poincaré section
 POLHODE: Color = (150, 100, 40)  # the phase portrait's family of polhodes (ω's orange, dimmed)
 SEPARATRIX: Color = (230, 70, 70)  # the separatrices and the unstable equilibria

@@ -44,7 +44,7 @@ CHUNK_ROWS = 16384  # rows per send_columns call: enough that Rerun's fixed cost
 VISUAL_ROWS = 4096  # visual rows converted and sent together: their conversion (labels, geometry) holds far more per row than the state's
 VISUAL_SECONDS = 0.5  # collected visual rows are sent at least this often (a live viewer keeps up)
 LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
-FULL_RATE = (layout.QUATERNION, layout.OMEGA, layout.WORK)  # every sample: the state, and the invariants' drifts (``full_rate``)
+FULL_RATE = (layout.QUATERNION, layout.OMEGA, layout.WORK, layout.ROTOR_MOMENTUM)  # every sample: the state, and the invariants' drifts (``full_rate``)
 
 
 def check_output_path(path: Path, inputs: tuple[Path, ...] = ()) -> None:
@@ -279,6 +279,7 @@ def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
     out.update(visuals.euler_series(traj))
     out.update(portrait_view.top_series(traj, visuals.degrees_wanted(traj.scene)))
     out.update(visuals.load_series(traj))
+    out.update(visuals.rotor_series(traj))
     return out
 
 
@@ -337,6 +338,8 @@ def _write_full_rate(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int)
     full = {layout.QUATERNION: traj.quaternion, layout.OMEGA: traj.omega}
     if traj.work is not None:
         full[layout.WORK] = traj.work[:, None]
+    if traj.rotor_momenta is not None:
+        full[layout.ROTOR_MOMENTUM] = traj.rotor_momenta
     full.update({entity: drift[:, None] for name, drift in traj.invariants.items() if full_rate(entity := f"{layout.INVARIANTS}/{name}")})
     for rows in _slices(traj.t.shape[0], chunk_rows):
         index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]

@@ -160,19 +160,45 @@ def _expression(load: cfg.Expression, index: int, c: Compiling, names: Any) -> N
     c.programs.add(load.programs(), frame_code(load.frame), window_of(load.window), point=point, up=up / np.linalg.norm(up), names=names)
 
 
-def _pd_control(load: cfg.PDControl, index: int, c: Compiling, names: Any) -> None:
-    """M_i = sat(−kp sgn(δ₀) δ_i − kd ω_i), δ = Λ̃_target ∘ Λ:
-    δ₀ = τ₀λ₀ + τ·λ,  δ_v = τ₀ λ_v − λ₀ τ_v − τ_v × λ_v  (τ the target)."""
+def _pd_terms(load: cfg.PDControl) -> tuple[list[str], dict[str, float]]:
+    """The three components of −kp sgn(δ₀) δ_v − kd ω (unclipped) as formulas, and their constants:
+    δ = Λ̃_target ∘ Λ, δ₀ = τ₀λ₀ + τ·λ,  δ_v = τ₀ λ_v − λ₀ τ_v − τ_v × λ_v  (τ the target)."""
     constants = {"a0": load.target[0], "a1": load.target[1], "a2": load.target[2], "a3": load.target[3], "kp": load.kp, "kd": load.kd}
     d0 = "(a0*q[0] + a1*q[1] + a2*q[2] + a3*q[3])"
     delta = ["(a0*q[1] - q[0]*a1 - (a2*q[3] - a3*q[2]))",
              "(a0*q[2] - q[0]*a2 - (a3*q[1] - a1*q[3]))",
              "(a0*q[3] - q[0]*a3 - (a1*q[2] - a2*q[1]))"]
-    texts = [f"-kp*sign({d0})*{d} - kd*omega[{i}]" for i, d in enumerate(delta)]
-    if load.max_torque is not None:
-        constants["limit"] = load.max_torque
-        texts = [f"max(-limit, min(limit, {text}))" for text in texts]
-    c.programs.formulas(texts, constants, BODY, window_of(load.window), names=names)
+    return [f"-kp*sign({d0})*{d} - kd*omega[{i}]" for i, d in enumerate(delta)], constants
+
+
+def _clipped(text: str, limit: float | None, constants: dict[str, float]) -> str:
+    """``text`` clipped to ±``limit`` (as is without one)."""
+    if limit is None:
+        return text
+    constants["limit"] = limit
+    return f"max(-limit, min(limit, {text}))"
+
+
+def _pd_control(load: cfg.PDControl, index: int, c: Compiling, names: Any) -> None:
+    """M_i = sat(−kp sgn(δ₀) δ_i − kd ω_i) (``_pd_terms``)."""
+    texts, constants = _pd_terms(load)
+    c.programs.formulas([_clipped(text, load.max_torque, constants) for text in texts], constants, BODY, window_of(load.window), names=names)
+
+
+def drive_formula(rotor: cfg.Rotor) -> tuple[list[tuple[Any, int]], tuple[float, float]]:
+    """A driven rotor's drive torque u as a program, and its window: the user's formula, or a
+    ``pd_control`` drive's share of the controller's body torque M: the body feels −u â, so
+    u = −â·M = kp sgn(δ₀) â·δ_v + kd â·ω, clipped to ±max_torque (â the axis, user's body frame)."""
+    from rotlab.config.expressions import parse_formula
+
+    if isinstance(rotor.torque, str):
+        return [rotor.program()], (-np.inf, np.inf)
+    load = rotor.torque
+    axis = np.asarray(rotor.axis, dtype=float) / np.linalg.norm(rotor.axis)
+    texts, constants = _pd_terms(load)  # type: ignore[arg-type]
+    constants.update({f"e{i}": float(axis[i]) for i in range(3)})
+    share = " + ".join(f"e{i}*({text})" for i, text in enumerate(texts))
+    return [parse_formula(_clipped(f"-({share})", load.max_torque, constants), constants)], window_of(load.window)  # type: ignore[union-attr]
 
 
 def _quadratic_drag(load: cfg.QuadraticDrag, index: int, c: Compiling, names: Any) -> None:

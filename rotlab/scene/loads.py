@@ -25,7 +25,7 @@ from rotlab.core.torques import (
     EX_COLUMNS, EX_FORCE, EX_FRAME, EX_OFF, EX_ON, EX_POINT, EX_PROGRAMS, EX_RATE, EX_UP, EX_UP2, F_COLUMNS, F_FORCE, F_POINT,
     T_AMP, T_COLUMNS, T_OFF, T_OFFSET, T_ON, T_W, TB_COLUMNS, TB_OFF, TB_ON,
 )
-from rotlab.scene.load_kinds import Compiling, kind_of
+from rotlab.scene.load_kinds import BODY as BODY_FRAME, Compiling, drive_formula, kind_of
 from rotlab.scene.user_torque import UserTorque
 
 UNNAMED = ("formula x", "formula y", "formula z")  # what a failure calls a formula built without names
@@ -46,6 +46,17 @@ class Expressions(NamedTuple):
     fn: int  # address of the compiled programs (``rotlab.scene.formulas``): fn(load, component, inputs…)
 
 
+class Drives(NamedTuple):
+    """A gyrostat's driven rotors: each one's drive torque u (N·m) as a formula — rows of the
+    scene's programs after the loads' (component 0), sharing their code and compiled function —
+    and its unit axis (principal frame).  Rotor j's momentum J Ω is the state's column
+    ``STATE_SIZE + j``, and d(J Ω)/dt = u."""
+
+    ex: Expressions  # one row per driven rotor
+    offset: int  # rotor j's formula is the programs' load ``offset + j``
+    axes: np.ndarray  # (n, 3) unit axes, principal frame
+
+
 class LoadArrays(NamedTuple):
     """Every load of a scene as arrays, empty groups included (see ``Model`` for the kernels)."""
 
@@ -59,6 +70,7 @@ class LoadArrays(NamedTuple):
     user: UserTorque | None = None
     formula_names: tuple[tuple[str, str, str], ...] = ()  # per expression row: what each component is, for failures
     user_function: Callable | None = None  # the Python function behind ``user``, for its failures
+    drives: Drives | None = None  # driven rotors (``compile_loads``'s ``rotors``)
 
 
 class Model(NamedTuple):
@@ -75,7 +87,8 @@ class Model(NamedTuple):
     damping: float | None
     expressions: Expressions | None
     user: UserTorque | None
-    rotors: np.ndarray | None = None  # (3,) the rotors' momentum h (principal frame): the gyrostatic torque h × ω
+    rotors: np.ndarray | None = None  # (3,) the constant rotors' momentum h (principal frame): the gyrostatic torque h × ω
+    drives: Drives | None = None  # driven rotors: their momenta are state columns 8, 9, … (``Drives``)
 
 
 def build_model(loads: LoadArrays, moments: np.ndarray, like: Model | None = None, rotors: np.ndarray | None = None) -> Model:
@@ -101,6 +114,7 @@ def build_model(loads: LoadArrays, moments: np.ndarray, like: Model | None = Non
         expressions=expressions,
         user=loads.user,
         rotors=None if rotors is None else np.asarray(rotors, dtype=float),
+        drives=None if like is not None else loads.drives,
     )
 
 
@@ -162,14 +176,25 @@ class ProgramBuilder:
 
 
 def compile_loads(body: cfg.Body, loads: Sequence[cfg.Load], axes: np.ndarray, moments: np.ndarray, user: UserTorque | None = None,
-                  user_function: Callable | None = None) -> LoadArrays:
+                  user_function: Callable | None = None, rotors: Sequence[cfg.Rotor] = ()) -> LoadArrays:
     """Turn a scenario's loads on ``body`` into arrays, each by its kind's declaration
     (``rotlab.scene.load_kinds``); body-frame vectors are rotated by Pᵀ = ``axes.T`` into the
-    principal frame (space-frame vectors are unchanged)."""
+    principal frame (space-frame vectors are unchanged).  The driven ones of ``rotors`` add their
+    drives' formulas after the loads' (``Drives``)."""
     programs = ProgramBuilder()
     c = Compiling(body, axes, programs)
     for index, load in enumerate(loads):
         kind_of(load).compile(load, index, c, _component_names(index, load))
+    offset = len(programs.rows)
+    driven = [(k, rotor) for k, rotor in enumerate(rotors) if rotor.torque is not None]
+    for k, rotor in driven:
+        program, window = drive_formula(rotor)
+        what = f"= {rotor.torque!r}" if isinstance(rotor.torque, str) else "(pd_control)"
+        programs.add(program, BODY_FRAME, window, names=(f"rotors[{k}].torque {what}", "", ""))
+    every = programs.build(axes, moments)
+    expressions = every if every is None or not driven else (every._replace(rows=every.rows[:offset]) if offset else None)
+    drives = None if not driven else Drives(every._replace(rows=every.rows[offset:]), offset, np.array(  # type: ignore[union-attr]
+        [axes.T @ (np.asarray(r.axis, dtype=float) / np.linalg.norm(r.axis)) for _, r in driven]))
     return LoadArrays(
         forces=np.array(c.forces, dtype=float).reshape(-1, F_COLUMNS),
         terms=np.array(c.terms, dtype=float).reshape(-1, T_COLUMNS),
@@ -177,10 +202,11 @@ def compile_loads(body: cfg.Body, loads: Sequence[cfg.Load], axes: np.ndarray, m
         table_t=np.array(c.table_t, dtype=float),
         table_v=np.array(c.table_v, dtype=float).reshape(-1, 3),
         damping=float(c.damping),
-        expressions=programs.build(axes, moments),
+        expressions=expressions,
         user=user,
         formula_names=tuple(programs.names),
         user_function=user_function,
+        drives=drives,
     )
 
 
@@ -233,12 +259,13 @@ def _expression_windows(loads: LoadArrays) -> np.ndarray:
 
 
 def has_switches(loads: LoadArrays) -> bool:
-    """True when an expression load uses abs, sign, min or max (``pd_control`` included): a
+    """True when an expression load (or a rotor's drive) uses abs, sign, min or max (``pd_control`` included): a
     torque that jumps or kinks where no breakpoint marks it.  A fixed step runs across such a
     switch at low order, whatever its probe measured between switches."""
-    if loads.expressions is None:
+    programs = loads.expressions if loads.expressions is not None else (loads.drives.ex if loads.drives is not None else None)
+    if programs is None:  # (the loads' and the drives' programs share their code)
         return False
-    return bool(np.isin(loads.expressions.code[:, 0], [opcodes.ABS, opcodes.SIGN, opcodes.MIN, opcodes.MAX]).any())
+    return bool(np.isin(programs.code[:, 0], [opcodes.ABS, opcodes.SIGN, opcodes.MIN, opcodes.MAX]).any())
 
 
 def active_forces(loads: LoadArrays) -> np.ndarray:
@@ -251,7 +278,8 @@ def has_nonconservative(loads: LoadArrays) -> bool:
     """True when some load does work that no potential accounts for."""
     terms_active = bool(np.any(loads.terms[:, T_OFFSET:T_AMP + 3] != 0.0))
     tables_active = bool(np.any(loads.table_v != 0.0))
-    return terms_active or tables_active or loads.damping > 0.0 or loads.expressions is not None or loads.user is not None
+    return (terms_active or tables_active or loads.damping > 0.0 or loads.expressions is not None or loads.user is not None
+            or loads.drives is not None)  # a driven rotor's drive works on the body
 
 
 def torque_scale(loads: LoadArrays) -> float:

@@ -157,12 +157,20 @@ class Scene:
 
     @cached_property
     def state0(self) -> np.ndarray:
-        """The state at t0 in ``rotlab.core.state``'s layout: Λ, ω (principal frame), W = 0.
+        """The state at t0 in ``rotlab.core.state``'s layout: Λ, ω (principal frame), W = 0, and
+        the driven rotors' momenta (``drive_momenta0``).
         Read-only: a run starts from a copy (``rotlab.methods.stepping.initial_state``)."""
-        y = np.zeros(STATE_SIZE)
+        y = np.zeros(STATE_SIZE + len(self.drive_momenta0))
         y[LAMBDA], y[OMEGA] = self.q0, self.omega0
+        y[STATE_SIZE:] = self.drive_momenta0
         y.flags.writeable = False
         return y
+
+    @cached_property
+    def drive_momenta0(self) -> np.ndarray:
+        """J Ω of each driven rotor at t0 (N·m·s): the state's columns after ``STATE_SIZE``."""
+        return np.array([r.momentum if r.momentum is not None else r.inertia * r.spin
+                         for r in self.scenario.rotors if r.torque is not None], dtype=float)
 
     @cached_property
     def rate_scale(self) -> float:
@@ -238,22 +246,27 @@ def _principal(body: cfg.Body) -> tuple[np.ndarray, np.ndarray]:
 def _build_rigid(scenario: cfg.Scenario, user, user_function: Callable | None = None) -> Rigid:
     moments, axes = _principal(scenario.body)
     axes_q = np.array([1.0, 0.0, 0.0, 0.0]) if scenario.body.principal_moments is not None else quat.from_matrix(axes)
-    loads = compile_loads(scenario.body, scenario.loads, axes, moments, user, user_function)
+    loads = compile_loads(scenario.body, scenario.loads, axes, moments, user, user_function, scenario.rotors)
     forces = active_forces(loads)
-    has_work = has_nonconservative(loads)
-    direction = _common_direction(forces[:, F_FORCE:F_FORCE + 3]) if len(forces) and not has_work else None
+    has_work = has_nonconservative(loads)  # the rotors' drives too: they work on the body
+    external_work = has_nonconservative(loads._replace(drives=None))  # (a drive is internal: L = I ω + h is kept)
+    direction = _common_direction(forces[:, F_FORCE:F_FORCE + 3]) if len(forces) and not external_work else None
     h = axes.T @ scenario.rotor_momentum()  # principal frame
     rotors = h if np.any(h != 0.0) else None
-    kind, reason, symmetry_axis = _classify(moments, forces, has_work) if rotors is None else _gyrostat(h, scenario.rotor_momentum())
+    gyrostat = rotors is not None or loads.drives is not None
+    kind, reason, symmetry_axis = _gyrostat(scenario) if gyrostat else _classify(moments, forces, has_work)
     return Rigid(body=scenario.body, specs=tuple(scenario.loads), moments=moments, axes=axes, axes_quaternion=axes_q, loads=loads, kind=kind, kind_reason=reason,
-                 free_of_loads=not len(forces) and not has_work, rotor_momentum=rotors,
+                 free_of_loads=not len(forces) and not external_work, rotor_momentum=rotors,
                  has_potential=bool(len(forces)), has_work=has_work, field_direction=None if direction is None else -direction,
                  symmetry_axis=symmetry_axis)
 
 
-def _gyrostat(h: np.ndarray, h_user: np.ndarray) -> tuple[str, str, None]:
+def _gyrostat(scenario: cfg.Scenario) -> tuple[str, str, None]:
     """A body with rotors: a gyrostat, whatever its loads (no closed form here; no symmetry invariant kept)."""
-    return GYROSTAT, f"rotors carry the momentum h = {np.array2string(h_user, precision=4)} N·m·s (body frame)", None
+    h = scenario.rotor_momentum() + scenario.rotor_momentum(driven=True)
+    driven = sum(r.torque is not None for r in scenario.rotors)
+    drives = f", {driven} of them driven" if driven else ""
+    return GYROSTAT, f"rotors carry the momentum h = {np.array2string(h, precision=4)} N·m·s at t0 (body frame){drives}", None
 
 
 def _common_direction(vectors: np.ndarray) -> np.ndarray | None:

@@ -16,6 +16,8 @@ from rotlab.scene.scene import TORQUE_FREE, Scene
 
 
 def _requires(scene: Scene) -> str | None:
+    if scene.loads.drives is not None:
+        return "splitting needs a conservative scene, and a driven rotor's drive does work on the body (use dop853, rk4 or rkmk4)"
     if scene.has_work:
         return (
             "splitting needs a conservative scene (free body, gravity, constant space-frame forces), "

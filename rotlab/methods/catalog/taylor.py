@@ -43,6 +43,8 @@ class Taylor:
     def unsupported(self, scene: Scene) -> str | None:
         if scene.loads.user is not None:
             return "taylor needs the Taylor series of every load, and a Python torque function has none (use dop853, rk4 or rkmk4)"
+        if scene.loads.drives is not None:
+            return "taylor's series do not carry a driven rotor's momentum (use dop853, rk4 or rkmk4)"
         return None
 
     def auto_estimates(self, scene: Scene, settings: Settings, work: Work) -> list[Estimate]:
