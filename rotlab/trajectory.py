@@ -125,6 +125,13 @@ class Trajectory:
         return self._state[:, STATE_SIZE:].copy() if self.scene.loads.drives is not None else None
 
     @cached_property
+    def rotor_speeds(self) -> np.ndarray | None:  # (N, n) rad/s, Ω of each driven rotor relative to the body (NaN: no inertia given)
+        if self.rotor_momenta is None:
+            return None
+        inertia = np.array([r.inertia or np.nan for r in self.scene.scenario.rotors if r.torque is not None])
+        return self.rotor_momenta / inertia
+
+    @cached_property
     def total(self) -> np.ndarray:  # (N,) J, T + V
         return self._quantities[5]
 
@@ -201,6 +208,7 @@ class Trajectory:
         if self.rotor_momenta is not None:
             for k, name in enumerate(driven_rotor_names(self.scene.scenario)):
                 out[f"rotor_momentum_{name}"] = (self.rotor_momenta[:, k], "N·m·s (J Ω)")
+                out[f"rotor_speed_{name}"] = (self.rotor_speeds[:, k], "rad/s (Ω, relative to the body)")
         for name, drift in self.invariants.items():
             out[f"drift_{name}"] = (drift, "1 (relative)")
         if self.euler_angles is not None:
@@ -235,7 +243,8 @@ def concatenate(parts: list[Trajectory]) -> Trajectory:
 
 
 # The per-sample series of a Trajectory (None where the scene has no such series), drifts apart.
-_SERIES = ("quaternion", "omega", "L_body", "L_space", "kinetic", "potential", "work", "rotor_momenta", "total", "euler_angles")
+_SERIES = ("quaternion", "omega", "L_body", "L_space", "kinetic", "potential", "work", "rotor_momenta", "rotor_speeds", "total",
+           "euler_angles")
 
 
 def _per_series(parts: list[Trajectory], combine: Callable[[list[np.ndarray]], np.ndarray]) -> Trajectory:

@@ -253,6 +253,8 @@ def test_a_driven_rotor_is_recorded_and_exported(tmp_path, cli):
     t, momenta = read_series(path, "/rotors/momentum")
     traj = rotlab.simulate(_driven("rk4", step=1e-3))
     assert np.array_equal(momenta[:, 0], traj.rotor_momenta[:, 0])  # every sample (the state's column)
+    _, speeds = read_series(path, "/rotors/speed")
+    assert speeds[:, 0] == pytest.approx(traj.rotor_momenta[:: len(traj.t) // len(t), 0][: len(t)] / 0.02 / (2.0 * np.pi / 60.0), rel=1e-6)  # rpm
     _, torques = read_series(path, "/rotors/torque")
     assert torques[:, 0] == pytest.approx(0.05 * np.sin(2.0 * t) - 0.01 * traj.omega[:: len(traj.t) // len(t), 1][: len(t)], abs=1e-12)
     result = cli("export", str(path), "-o", str(tmp_path / "run.csv"))
@@ -261,6 +263,8 @@ def test_a_driven_rotor_is_recorded_and_exported(tmp_path, cli):
 
     table = pd.read_csv(tmp_path / "run.csv", comment="#")
     assert np.array_equal(table["rotor_momentum_drive"].to_numpy(), traj.rotor_momenta[:, 0])
+    figure = cli("plot", str(path), "-o", str(tmp_path / "fig.png"), "--panels", "speed,torque")
+    assert figure.exit_code == 0 and "speed, torque" in figure.output and (tmp_path / "fig.png").stat().st_size > 10_000
 
 
 def write_rotor_recording(tmp_path):

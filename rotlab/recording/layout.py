@@ -18,6 +18,7 @@ BODY_AXES = "/world/body/axes"
 BODY_ARM = "/world/body/arm"  # fixed point → centre of mass
 ROTOR_MOMENTUM = "/rotors/momentum"  # J Ω of each driven rotor, N·m·s, every sample (the state's last columns)
 ROTOR_TORQUE = "/rotors/torque"  # u, each driven rotor's drive torque, N·m
+ROTOR_SPEED = "/rotors/speed"  # Ω of each driven rotor relative to the body, rpm (where every driven rotor's inertia is given)
 ROTORS = "/world/body/rotors"  # a gyrostat's wheels (static, body frame): /rotors/wheels (discs on their axes), /rotors/shafts
 BODY_POLHODE = "/world/body/polhode"  # torque-free: tip of scaled ω in the body frame
 AXIS_PATH = "/world/axis_path"  # static: path of the reference-axis tip (symmetry axis, else the spin axis)
@@ -119,9 +120,12 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
     if logs:
         values = np.column_stack([series[e][0][:, 0] for e in logs])
         out.append(Plot("Invariant drift, log10 |relative|", INVARIANTS_LOG, True, plot_range(values, True)))
-    if ROTOR_MOMENTUM in series:
-        out += [Plot("Driven rotors' momentum J Ω (N·m·s)", ROTOR_MOMENTUM, True, rng(ROTOR_MOMENTUM, True)),
-                Plot("Driven rotors' drive torque u (N·m)", ROTOR_TORQUE, True, rng(ROTOR_TORQUE, True))]
+    if ROTOR_SPEED in series:
+        out.append(Plot("Driven rotors' speed Ω (rpm)", ROTOR_SPEED, True, rng(ROTOR_SPEED, True)))
+    elif ROTOR_MOMENTUM in series:
+        out.append(Plot("Driven rotors' momentum J Ω (N·m·s)", ROTOR_MOMENTUM, True, rng(ROTOR_MOMENTUM, True)))
+    if ROTOR_TORQUE in series:
+        out.append(Plot("Driven rotors' drive torque u (N·m)", ROTOR_TORQUE, True, rng(ROTOR_TORQUE, True)))
     if LOAD_TORQUE_BODY in series:
         out += [Plot("M of the loads, body frame (N·m)", LOAD_TORQUE_BODY, True, rng(LOAD_TORQUE_BODY, True)),
                 Plot("M of the loads, space frame (N·m)", LOAD_TORQUE_SPACE, True, rng(LOAD_TORQUE_SPACE, True)),

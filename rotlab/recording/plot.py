@@ -28,7 +28,8 @@ from rotlab.recording.reader import entity_paths, query_matches, read_series, re
 FORMATS = (".pdf", ".svg", ".png")
 MAX_POINTS = 4000  # per series drawn: longer ones become their min-max envelope
 ORDER = (layout.OMEGA, layout.L_SPACE, layout.EULER_THETA, layout.EULER_PSI, layout.EULER_SPIN_RATE, layout.TOP_POTENTIAL,
-         layout.ENERGY, layout.INVARIANTS_LOG, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE, layout.LOAD_POWER)
+         layout.ENERGY, layout.INVARIANTS_LOG, layout.ROTOR_SPEED, layout.ROTOR_MOMENTUM, layout.ROTOR_TORQUE, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE,
+         layout.LOAD_POWER)
 XYZ = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z (p, q, r) in red, green, blue, as in the viewer
 LINE_STYLES = ("-", "--", ":", "-.")  # overlaid runs, in the order given
 

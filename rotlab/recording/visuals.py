@@ -99,13 +99,17 @@ def rotor_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
     """The driven rotors' momenta J Ω and drive torques u, one series per rotor (none without)."""
     if traj.rotor_momenta is None:
         return {}
+    from rotlab.config.models import RPM
     from rotlab.core.torques import drive_torques
     from rotlab.trajectory import driven_rotor_names
 
     names = [style.drawable(f"h {name}") for name in driven_rotor_names(traj.scene.scenario)]
     torques = np.zeros(traj.rotor_momenta.shape)
     drive_torques(traj.t, traj._state, traj.scene.model, torques)
-    return {layout.ROTOR_MOMENTUM: (traj.rotor_momenta, names), layout.ROTOR_TORQUE: (torques, [n.replace("h ", "u ", 1) for n in names])}
+    out = {layout.ROTOR_MOMENTUM: (traj.rotor_momenta, names), layout.ROTOR_TORQUE: (torques, [n.replace("h ", "u ", 1) for n in names])}
+    if np.all(np.isfinite(traj.rotor_speeds[:1])):  # every driven rotor's inertia given: its speed too
+        out[layout.ROTOR_SPEED] = (traj.rotor_speeds / RPM, [n.replace("h ", "Ω ", 1) for n in names])
+    return out
 
 
 def load_series(traj: Trajectory, rows: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, list[str]]]:
@@ -136,7 +140,7 @@ def series_colors(entity: str, names: list[str]) -> list[style.Color] | None:
         return [style.ENERGY[n] for n in names]
     if entity.startswith((layout.INVARIANTS + "/", layout.INVARIANTS_LOG + "/")):
         return [style.INVARIANT.get(entity.rsplit("/", 1)[1], style.FIELD)]
-    if entity in (layout.ROTOR_MOMENTUM, layout.ROTOR_TORQUE):  # rotor k: one hue in both plots
+    if entity in (layout.ROTOR_MOMENTUM, layout.ROTOR_SPEED, layout.ROTOR_TORQUE):  # rotor k: one hue in every plot
         return [style.HUES[k % len(style.HUES)] for k in range(len(names))]
     if entity == layout.TOP_POTENTIAL:
         return [style.ENERGY["V"], style.ENERGY["T+V"]]
