@@ -31,7 +31,7 @@ from numba import njit, types
 from numba.extending import overload
 
 from rotlab.core.state import P0, Q0, STATE_SIZE, WORK
-from rotlab.core.torques import conservative_torque, drive_rotors, nonconservative_torque
+from rotlab.core.torques import conservative_torque, drive_rotors, nonconservative_torque, with_gyrostatic
 
 __all__ = ["STATE_SIZE", "all_finite", "euler_coefficients", "next_piece", "rhs", "rhs_called", "rhs_llvm_inlined", "state_size"]
 
@@ -61,24 +61,6 @@ def rhs(t, y, dy, model):
     dy[P0 + 1] = euler[1] * r * p + (cy + ny) * euler[4]
     dy[P0 + 2] = euler[2] * p * q + (cz + nz) * euler[5]
     dy[WORK] = nx * p + ny * q + nz * r
-
-
-def with_gyrostatic(torque, p, q, r, rotors):
-    """``torque`` + h × ω for a gyrostat's rotors' momentum h (body frame), workless (ω·(h × ω) = 0);
-    ``torque`` itself when there are no rotors (None: compiled to nothing)."""
-    raise NotImplementedError("compiled only")
-
-
-@overload(with_gyrostatic, inline="always")
-def _with_gyrostatic(torque, p, q, r, rotors):
-    if isinstance(rotors, types.NoneType):
-        return lambda torque, p, q, r, rotors: torque
-
-    def impl(torque, p, q, r, rotors):
-        return (torque[0] + (rotors[1] * r - rotors[2] * q), torque[1] + (rotors[2] * p - rotors[0] * r),
-                torque[2] + (rotors[0] * q - rotors[1] * p))
-
-    return impl
 
 
 def state_size(model):

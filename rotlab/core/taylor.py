@@ -35,10 +35,10 @@ from functools import cache
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, store_row, with_gyrostatic
+from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, store_row
 from rotlab.core.expressions import release_forced
 from rotlab.core.quaternion import N_PRODUCTS, cross_array, rotate_quadratic
-from rotlab.core.torques import F_FORCE, F_POINT, load_series, nonconservative_series, series_workspace, switch_step
+from rotlab.core.torques import F_FORCE, F_POINT, load_series, nonconservative_series, series_workspace, switch_step, with_gyrostatic
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 

@@ -330,6 +330,29 @@ def expression_torque(t, y, rows, fn, axes, axes_q, moments):
     return nx, ny, nz
 
 
+@njit(cache=True, forceinline=True)
+def plus_h_cross_omega(cx, cy, cz, hx, hy, hz, p, q, r):
+    """c + h × ω: the gyrostatic torque of rotors' momentum h added to c (body components)."""
+    return cx + (hy * r - hz * q), cy + (hz * p - hx * r), cz + (hx * q - hy * p)
+
+
+def with_gyrostatic(torque, p, q, r, rotors):
+    """``torque`` + h × ω for a gyrostat's rotors' momentum h (body frame), workless (ω·(h × ω) = 0);
+    ``torque`` itself when there are no rotors (None: compiled to nothing)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(with_gyrostatic, inline="always")
+def _with_gyrostatic(torque, p, q, r, rotors):
+    if isinstance(rotors, types.NoneType):
+        return lambda torque, p, q, r, rotors: torque
+
+    def impl(torque, p, q, r, rotors):
+        return plus_h_cross_omega(torque[0], torque[1], torque[2], rotors[0], rotors[1], rotors[2], p, q, r)
+
+    return impl
+
+
 def drive_rotors(t, y, dy, torques, drives):
     """A gyrostat's driven rotors (``rotlab.scene.loads.Drives``): dy[STATE_SIZE + j] = u_j, their
     drives' torques, and ``torques`` = (conservative, non-conservative) body torques with the
@@ -368,7 +391,8 @@ def rotor_drives(t, y, dy, torques, rows, fn, axes, axes_q, moments, offset, rot
         nx -= u * ax
         ny -= u * ay
         nz -= u * az
-    return cx + (hy * r - hz * q), cy + (hz * p - hx * r), cz + (hx * q - hy * p), nx, ny, nz
+    cx, cy, cz = plus_h_cross_omega(cx, cy, cz, hx, hy, hz, p, q, r)
+    return cx, cy, cz, nx, ny, nz
 
 
 _forces_called = njit(cache=True)(forces_torque)
