@@ -136,6 +136,9 @@ def test_a_heavy_gyrostat_keeps_its_vertical_momentum():
     ({"axis": [1, 0, 0], "inertia": 0.1, "spin": 1.0, "spin_rpm": 10.0}, "rotors[0].spin_rpm"),
     ({"axis": [1, 0, 0], "inertia": -0.1, "spin": 1.0}, "rotors[0].inertia"),
     ({"axis": [1, 0, 0], "momentum": 1.0, "mass": 3.0}, "rotors[0].mass"),
+    ({"axis": [0, 1e-300, 0], "momentum": 1.0}, "rotors[0].axis"),  # (its norm underflows)
+    ({"axis": [0, 1, 0], "inertia": 2.5, "spin": 1.0}, "rotors[0].inertia"),  # more than the body's B = 2 about y
+    ({"axis": [1, 0, 0], "momentum": 1.0, "torque": "gamma[2]", "up": [0, 0, 0]}, "rotors[0].up"),
 ])
 def test_a_bad_rotor_is_one_line_naming_its_key(cli, write, rotor, key):
     body = "\n".join(f"{k} = {v!r}".replace("'", '"') for k, v in rotor.items())
@@ -285,3 +288,50 @@ def test_a_bad_drive_is_one_line_naming_its_key(write, cli, rotor, key):
     result = cli("validate", str(path))
     lines = result.output.strip().splitlines()
     assert result.exit_code == 2 and len(lines) == 1 and key in lines[0], result.output
+
+
+def test_rotor_names_are_their_own(cli, write):
+    path = write("dup.toml", "[body]\nprincipal_moments = [1, 2, 3]\n[time]\nend = 1.0\n"
+                             "[[rotors]]\nname = \"a\"\naxis = [1, 0, 0]\nmomentum = 0.1\n"
+                             "[[rotors]]\nname = \"2\"\naxis = [0, 1, 0]\nmomentum = 0.1\n")  # "2": the first one's place name
+    result = cli("validate", str(path))
+    assert result.exit_code == 0, result.output
+    path = write("dup2.toml", path.read_text().replace('name = "2"', 'name = "a"'))
+    result = cli("validate", str(path))
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1 and "rotors[1].name: rotor name 'a' is used twice" in lines[0]
+
+
+def test_momentum_given_on_the_command_line_replaces_the_files_spin(cli):
+    result = cli("validate", str(CONFIGS / "wheel_slew.toml"), "--set", "rotors[2].momentum=0.003")
+    assert result.exit_code == 0, result.output
+    assert "rotor z: axis [0.0, 0.0, 1.0] (body frame), J Ω = 0.003 N·m·s, J = 0.0002 kg·m²" in result.output
+
+
+def test_a_drives_gamma_is_its_own_up_in_body_components():
+    """u = gamma[0] with up = space x: the drive's torque is (Rᵀ x̂)_x, the body's x axis's space x."""
+    base = {"body": {"principal_moments": [1, 2, 3]}, "initial": {"omega": [0.3, 0.2, 0.1]}, "time": {"end": 2.0},
+            "solver": {"method": "rk4", "step": 1e-3}}
+    scenario = parse_scenario({**base, "rotors": [{"axis": [0, 0, 1], "inertia": 0.01, "spin": 0.0, "torque": "0.01*gamma[0]",
+                                                   "up": [1, 0, 0]}]}, source="up")
+    traj = rotlab.simulate(scenario)
+    from rotlab.core.quaternion import to_matrix
+
+    expected = 0.01 * np.array([to_matrix(q)[0, 0] for q in traj.quaternion])  # (Rᵀ x̂)_x = R[0, 0]
+    rates = np.gradient(traj.rotor_momenta[:, 0], traj.t)
+    assert np.max(np.abs(rates[2:-2] - expected[2:-2])) < 1e-6
+
+
+def test_speeds_are_recorded_for_the_driven_rotors_whose_inertia_is_given(tmp_path):
+    from rotlab.recording.reader import read_series
+
+    rotors = [DRIVEN, {**DRIVEN, "name": "bare", "inertia": None, "spin": None, "momentum": 0.1}]
+    rotors[1] = {k: v for k, v in rotors[1].items() if v is not None}
+    scenario = parse_scenario({"body": {"inertia_tensor": TENSOR.tolist()}, "rotors": rotors, "initial": {"omega": OMEGA0.tolist()},
+                               "time": {"end": 1.0}, "solver": {"method": "rk4", "step": 1e-3}}, source="speeds")
+    traj = rotlab.simulate(scenario)
+    assert traj.rotor_speeds.shape == (len(traj.t), 2) and np.all(np.isnan(traj.rotor_speeds[:, 1]))
+    path = rotlab.save(tmp_path / "s.rrd", traj)
+    _, speeds = read_series(path, "/rotors/speed")
+    _, momenta = read_series(path, "/rotors/momentum")
+    assert speeds.shape[1] == 1 and momenta.shape[1] == 2

@@ -333,7 +333,7 @@ class Body(_Model):
 ONE_QUANTITY = ({"omega", "omega_rpm", "omega_deg"},
                 {"quaternion", "axis_angle", "axis_angle_deg", "euler_313", "euler_313_deg"},
                 {"target", "target_euler_313_deg", "target_axis_angle_deg"},
-                {"spin", "spin_rpm"})
+                {"spin", "spin_rpm", "momentum"})
 RPM = 2.0 * math.pi / 60.0  # rad/s per revolution per minute
 DEGREE = math.pi / 180.0  # rad per degree
 
@@ -689,30 +689,44 @@ class Rotor(_Model):
     inertia: PositiveReal | None = None  # J, kg·m², about the axis
     spin_rpm: Real | None = None  # rev/min relative to the body: stored converted, as ``spin``
     spin: Real | None = None  # Ω, rad/s relative to the body, right-handed about ``axis``
-    momentum: Real | None = None  # J Ω, N·m·s, instead of inertia and spin
+    momentum: Real | None = None  # J Ω, N·m·s, instead of spin (inertia then optional: a driven rotor's speed needs it)
     # a driven rotor: its drive's torque u (N·m), J Ω̇ = u, the body feels −u â: a formula, or a controller,
     # { type = "pd_control", target…, kp, kd, max_torque }, whose body torque M the rotor supplies its share of (u = −â·M)
     torque: Drive | None = None
     constants: dict[str, Real] = {}  # names the ``torque`` formula may use
+    up: Vec3 = (0.0, 0.0, 1.0)  # space frame: the direction ``gamma`` shows in the formula, in body components
     position: Vec3 | None = None  # m, body frame, where the recording draws it (no effect on the motion)
 
     @model_validator(mode="after")
     def _complete(self) -> Rotor:
-        if not any(self.axis):
+        if not max(abs(a) for a in self.axis) >= MIN_POSITIVE:
             raise _invalid("axis", "must not be zero: give the rotor's spin axis in the body frame, e.g. [0, 0, 1]")
-        if self.momentum is not None:
-            for key in ("inertia", "spin"):
-                if getattr(self, key) is not None:
-                    raise _invalid(key, f"give momentum or inertia and spin, not both (found momentum and {key})")
-        elif self.inertia is None or self.spin is None:
+        if self.momentum is not None and self.spin is not None:
+            raise _invalid("spin", "give momentum (J Ω) or spin (Ω, with inertia), not both")
+        if self.momentum is None and (self.inertia is None or self.spin is None):
             missing = "inertia" if self.inertia is None else "spin"
             raise _invalid(missing, "a rotor needs inertia (kg·m², about its axis) and spin (rad/s, or spin_rpm), or momentum (N·m·s)")
         if isinstance(self.torque, str):
-            _check_formula_inputs((0.0, 0.0, 1.0), self.constants)
+            _check_formula_inputs(self.up, self.constants)
             self.program()
         elif self.constants:
             raise _invalid("constants", "constants are for a driven rotor's torque formula: give torque = \"...\" or remove them")
         return self
+
+    def unit_axis(self) -> np.ndarray:
+        """â, body frame (scaled first: an axis of tiny components normalises without underflow)."""
+        axis = np.asarray(self.axis, dtype=float)
+        axis = axis / np.max(np.abs(axis))
+        return axis / np.linalg.norm(axis)
+
+    def unit_up(self) -> np.ndarray:
+        """``up`` as a unit vector (space frame): what ``gamma`` shows in the drive's formula."""
+        up = np.asarray(self.up, dtype=float)
+        return up / np.linalg.norm(up)
+
+    def momentum_value(self) -> float:
+        """J Ω, N·m·s (at t0 for a driven rotor)."""
+        return float(self.momentum) if self.momentum is not None else float(self.inertia) * float(self.spin)  # type: ignore[arg-type]
 
     def program(self) -> tuple[expressions.Program, int]:
         """The drive's torque formula as (program, stack depth)."""
@@ -723,9 +737,7 @@ class Rotor(_Model):
 
     def momentum_vector(self) -> np.ndarray:
         """h of this rotor, body frame (N·m·s): J Ω â."""
-        axis = np.asarray(self.axis, dtype=float)
-        value = self.momentum if self.momentum is not None else float(self.inertia) * float(self.spin)  # type: ignore[arg-type]
-        return value * axis / np.linalg.norm(axis)
+        return self.momentum_value() * self.unit_axis()
 
 
 class Time(_Model):
@@ -951,7 +963,7 @@ class Scenario(_Model):
         lines = []
         for k, rotor in enumerate(self.rotors):
             given = (f"J = {rotor.inertia:.6g} kg·m², Ω = {rotor.spin:.6g} rad/s ({rotor.spin / RPM:.6g} rpm)"
-                     if rotor.momentum is None else f"J Ω = {rotor.momentum:.6g} N·m·s")
+                     if rotor.momentum is None else f"J Ω = {rotor.momentum:.6g} N·m·s" + (f", J = {rotor.inertia:.6g} kg·m²" if rotor.inertia else ""))
             drive = "" if rotor.torque is None else (f"; driven: u = {rotor.torque} N·m" if isinstance(rotor.torque, str) else
                                                      f"; driven by pd_control toward {list(rotor.torque.target)}")
             lines.append(f"- rotor {rotor.name or k + 1}: axis {list(rotor.axis)} (body frame), {given}{drive}")
@@ -959,6 +971,26 @@ class Scenario(_Model):
             h = self.rotor_momentum() + self.rotor_momentum(driven=True)
             lines.append(f"- rotors' momentum h: {np.array2string(h, precision=6)} N·m·s at t0, body frame (L = I ω + h)")
         return lines
+
+    @model_validator(mode="after")
+    def _rotors_fit_the_body(self) -> Scenario:
+        """Each rotor's name its own (its place in the list when it has none); the body's inertia
+        without the rotors' own, I − Σ J â âᵀ, positive definite (the body holds them)."""
+        seen: set[str] = set()
+        for k, rotor in enumerate(self.rotors):
+            name = rotor.name or str(k + 1)
+            if name in seen:
+                raise PydanticCustomError("rotlab", "rotor name '{name}' is used twice: give each rotor its own name",
+                                          {"key": f"rotors.{k}.name", "name": name})
+            seen.add(name)
+        if self.rotors:
+            bare = self.body.tensor() - sum(((r.inertia or 0.0) * np.outer(r.unit_axis(), r.unit_axis()) for r in self.rotors), np.zeros((3, 3)))
+            if np.min(np.linalg.eigvalsh(0.5 * (bare + bare.T))) <= 0.0:
+                k = max(range(len(self.rotors)), key=lambda j: self.rotors[j].inertia or 0.0)
+                raise PydanticCustomError("rotlab", "the rotors' own inertia J exceeds what the body holds about their axes: [body] gives the "
+                                                    "whole gyrostat's inertia, the rotors included (as if locked), so each J must be smaller",
+                                          {"key": f"rotors.{k}.inertia"})
+        return self
 
     @model_validator(mode="after")
     def _loads_need_body_data(self) -> Scenario:

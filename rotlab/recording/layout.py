@@ -18,7 +18,7 @@ BODY_AXES = "/world/body/axes"
 BODY_ARM = "/world/body/arm"  # fixed point → centre of mass
 ROTOR_MOMENTUM = "/rotors/momentum"  # J Ω of each driven rotor, N·m·s, every sample (the state's last columns)
 ROTOR_TORQUE = "/rotors/torque"  # u, each driven rotor's drive torque, N·m
-ROTOR_SPEED = "/rotors/speed"  # Ω of each driven rotor relative to the body, rpm (where every driven rotor's inertia is given)
+ROTOR_SPEED = "/rotors/speed"  # Ω of each driven rotor whose inertia is given, relative to the body, rpm
 ROTORS = "/world/body/rotors"  # a gyrostat's wheels (static, body frame): /rotors/wheels (discs on their axes), /rotors/shafts
 BODY_POLHODE = "/world/body/polhode"  # torque-free: tip of scaled ω in the body frame
 AXIS_PATH = "/world/axis_path"  # static: path of the reference-axis tip (symmetry axis, else the spin axis)
@@ -122,8 +122,8 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
         out.append(Plot("Invariant drift, log10 |relative|", INVARIANTS_LOG, True, plot_range(values, True)))
     if ROTOR_SPEED in series:
         out.append(Plot("Driven rotors' speed Ω (rpm)", ROTOR_SPEED, True, rng(ROTOR_SPEED, True)))
-    elif ROTOR_MOMENTUM in series:
-        out.append(Plot("Driven rotors' momentum J Ω (N·m·s)", ROTOR_MOMENTUM, True, rng(ROTOR_MOMENTUM, True)))
+    if ROTOR_MOMENTUM in series and (ROTOR_SPEED not in series or len(series[ROTOR_SPEED][1]) < len(series[ROTOR_MOMENTUM][1])):
+        out.append(Plot("Driven rotors' momentum J Ω (N·m·s)", ROTOR_MOMENTUM, True, rng(ROTOR_MOMENTUM, True)))  # some lack an inertia
     if ROTOR_TORQUE in series:
         out.append(Plot("Driven rotors' drive torque u (N·m)", ROTOR_TORQUE, True, rng(ROTOR_TORQUE, True)))
     if LOAD_TORQUE_BODY in series:

@@ -94,7 +94,7 @@ def rotor_wheels(rotors, size: float) -> dict[str, list]:
     disc on its axis at its ``position``, by default just outside the body (``size`` along the axis)."""
     centers, rotations = [], []
     for rotor in rotors:
-        axis = np.asarray(rotor.axis, dtype=float) / np.linalg.norm(rotor.axis)
+        axis = rotor.unit_axis()
         centers.append(np.asarray(rotor.position, dtype=float) if rotor.position is not None else size * axis)
         rotations.append(quat.between(np.array([0.0, 0.0, 1.0]), axis))  # the viewer's cylinders lie along z
     return {"centers": centers, "quaternions": rotations, "lengths": [WHEEL_WIDTH * size] * len(centers),

@@ -107,8 +107,9 @@ def rotor_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
     torques = np.zeros(traj.rotor_momenta.shape)
     drive_torques(traj.t, traj._state, traj.scene.model, torques)
     out = {layout.ROTOR_MOMENTUM: (traj.rotor_momenta, names), layout.ROTOR_TORQUE: (torques, [n.replace("h ", "u ", 1) for n in names])}
-    if np.all(np.isfinite(traj.rotor_speeds[:1])):  # every driven rotor's inertia given: its speed too
-        out[layout.ROTOR_SPEED] = (traj.rotor_speeds / RPM, [n.replace("h ", "Ω ", 1) for n in names])
+    known = [k for k, r in enumerate(r for r in traj.scene.scenario.rotors if r.torque is not None) if r.inertia is not None]
+    if known:  # the speeds of those whose inertia is given
+        out[layout.ROTOR_SPEED] = (traj.rotor_speeds[:, known] / RPM, [names[k].replace("h ", "Ω ", 1) for k in known])
     return out
 
 

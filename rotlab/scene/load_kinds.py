@@ -194,7 +194,7 @@ def drive_formula(rotor: cfg.Rotor) -> tuple[list[tuple[Any, int]], tuple[float,
     if isinstance(rotor.torque, str):
         return [rotor.program()], (-np.inf, np.inf)
     load = rotor.torque
-    axis = np.asarray(rotor.axis, dtype=float) / np.linalg.norm(rotor.axis)
+    axis = rotor.unit_axis()
     texts, constants = _pd_terms(load)  # type: ignore[arg-type]
     constants.update({f"e{i}": float(axis[i]) for i in range(3)})
     share = " + ".join(f"e{i}*({text})" for i, text in enumerate(texts))

@@ -190,11 +190,12 @@ def compile_loads(body: cfg.Body, loads: Sequence[cfg.Load], axes: np.ndarray, m
     for k, rotor in driven:
         program, window = drive_formula(rotor)
         what = f"= {rotor.torque!r}" if isinstance(rotor.torque, str) else "(pd_control)"
-        programs.add(program, BODY_FRAME, window, names=(f"rotors[{k}].torque {what}", "", ""))
+        up = rotor.unit_up() if isinstance(rotor.torque, str) else np.array([0.0, 0.0, 1.0])
+        programs.add(program, BODY_FRAME, window, up=up, names=(f"rotors[{k}].torque {what}", "", ""))
     every = programs.build(axes, moments)
     expressions = every if every is None or not driven else (every._replace(rows=every.rows[:offset]) if offset else None)
     drives = None if not driven else Drives(every._replace(rows=every.rows[offset:]), offset, np.array(  # type: ignore[union-attr]
-        [axes.T @ (np.asarray(r.axis, dtype=float) / np.linalg.norm(r.axis)) for _, r in driven]))
+        [axes.T @ r.unit_axis() for _, r in driven]))
     return LoadArrays(
         forces=np.array(c.forces, dtype=float).reshape(-1, F_COLUMNS),
         terms=np.array(c.terms, dtype=float).reshape(-1, T_COLUMNS),

@@ -169,8 +169,7 @@ class Scene:
     @cached_property
     def drive_momenta0(self) -> np.ndarray:
         """J Ω of each driven rotor at t0 (N·m·s): the state's columns after ``STATE_SIZE``."""
-        return np.array([r.momentum if r.momentum is not None else r.inertia * r.spin
-                         for r in self.scenario.rotors if r.torque is not None], dtype=float)
+        return np.array([r.momentum_value() for r in self.scenario.rotors if r.torque is not None], dtype=float)
 
     @cached_property
     def rate_scale(self) -> float:
