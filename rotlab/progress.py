@@ -20,8 +20,9 @@ COMPILING = "compiling numba kernels (once)"
 class StreamProgress:
     """``progress(done, total)`` is the integration's callback; ``written(done, total)`` the writer's."""
 
-    def __init__(self, label: str, stream: TextIO | None = None) -> None:
+    def __init__(self, label: str, stream: TextIO | None = None, unit: str = "samples") -> None:
         self.label = label
+        self.unit = unit  # what ``written`` counts: samples (a run), frames (an animation)
         self.stream = sys.stderr if stream is None else stream
         self.started = time.perf_counter()
         self.integrated = 0
@@ -62,8 +63,9 @@ class StreamProgress:
             rate = self.done / max(now - self.started, 1e-9)
             eta = (total - self.done) / rate if rate > 0 else float("inf")
             left = f"about {eta:,.0f} s left" if eta < float("inf") else "time left unknown"
-            self.lines.write(f"{self.label}: {self.done:,} of {total:,} samples written ({100 * self.done / max(total, 1):.0f}%; "
-                             f"integrated {self.integrated:,}), {rate:,.0f} samples/s, {left}\n")
+            integrated = f"; integrated {self.integrated:,}" if self.unit == "samples" else ""
+            self.lines.write(f"{self.label}: {self.done:,} of {total:,} {self.unit} written ({100 * self.done / max(total, 1):.0f}%"
+                             f"{integrated}), {rate:,.0f} {self.unit}/s, {left}\n")
             self.lines.flush()
 
     def _open(self, total: int | None) -> None:
@@ -75,8 +77,8 @@ class StreamProgress:
             BarColumn(),
             TaskProgressColumn(),
             MofNCompleteColumn(),
-            TextColumn("samples · integrated {task.fields[integrated]} ·"),
-            _RateColumn(),
+            TextColumn("samples · integrated {task.fields[integrated]} ·" if self.unit == "samples" else f"{self.unit} ·"),
+            _RateColumn() if self.unit == "samples" else TextColumn(""),
             TimeRemainingColumn(),
             console=Console(file=self.stream),
             transient=True,

@@ -411,3 +411,20 @@ def test_arrows_past_the_first_chunks_longest_still_grow_but_stay_in_the_view():
     assert lengths[3] == pytest.approx(2.0, rel=1e-11)  # continuous at the design length
     assert np.all(lengths <= 3.0 * (1.0 + 1e-15)) and lengths[-1] == pytest.approx(3.0, rel=1e-9)
     assert np.allclose(arrows[1:] / lengths[1:, None], direction, atol=1e-15)
+
+
+def test_animate_hides_what_the_body_covers():
+    """``animate.behind``: a point is hidden when the ray from it toward the camera crosses the
+    solid ellipsoid — behind it or inside it — and shown in front of it or beside it."""
+    from rotlab.core import quaternion as quat
+    from rotlab.recording.animate import behind, toward_camera
+
+    camera = toward_camera()
+    axes = quat.to_matrix(quat.from_axis_angle(np.array([0.3, -0.5, 0.8]), 0.7))  # a turned ellipsoid
+    half, centre = np.array([1.0, 0.5, 0.25]), np.array([0.2, -0.1, 0.3])
+    side = np.cross(camera, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    points = np.array([centre - 3.0 * camera, centre + 3.0 * camera, centre, centre + 3.0 * side, centre - 3.0 * camera + 3.0 * side])
+    assert behind(points, centre, axes, half, camera).tolist() == [True, False, True, False, False]
+    assert camera == pytest.approx(np.array([np.cos(np.radians(22)) * np.cos(np.radians(-58)),
+                                             np.cos(np.radians(22)) * np.sin(np.radians(-58)), np.sin(np.radians(22))]))
