@@ -57,6 +57,14 @@ def test_set_in_other_units_replaces_the_files_value(cli):
     assert result.exit_code == 0, result.output  # the file's omega and euler_313_deg give way
 
 
+
+def test_set_sample_rate_replaces_the_files_samples(cli):
+    """configs/detumbling.toml gives samples = 6001: a --set of sample_rate replaces it (and back)."""
+    result = cli("validate", str(CONFIGS / "detumbling.toml"), "--set", "time.sample_rate=2")
+    assert result.exit_code == 0 and "ok (12,001 samples" in result.output, result.output
+    result = cli("validate", str(CONFIGS / "lagrange.toml"), "--set", "time.samples=11")
+    assert result.exit_code == 0 and "ok (11 samples" in result.output, result.output
+
 def test_hints_for_values_that_look_like_unit_slips(cli):
     result = cli("validate", str(CONFIGS / "euler.toml"), "--set", "initial.euler_313=[15, 0, 0]", "--set", "initial.omega=[0, 0, 20000]")
     assert result.exit_code == 0

@@ -92,11 +92,21 @@ def _has_environment(pid: str, entry: str) -> bool:
 @pytest.mark.parametrize("config, args", [
     ("general.toml", ["--set", "time.end=200"]),  # 40,001 samples
     ("lagrange.toml", ["--method", "taylor", "--duration", "100", "--set", "time.sample_rate=400"]),  # 40,001, gravity, stepping
+    # the matrix: each scene kind, 10³ … 10⁶ samples, past the visual thinning (``output.visual_samples``, 10⁵)
+    ("euler.toml", ["--method", "dmv", "--duration", "10", "--set", "time.sample_rate=100"]),  # 1,001, torque-free
+    ("euler.toml", ["--method", "exact", "--duration", "1000", "--set", "time.sample_rate=1000"]),  # 1,000,001
+    ("dzhanibekov.toml", ["--method", "rk4", "--duration", "500", "--set", "time.sample_rate=200"]),  # 100,001
+    ("lagrange.toml", ["--method", "splitting", "--duration", "10", "--set", "time.sample_rate=100"]),  # 1,001, Lagrange top
+    ("general.toml", ["--method", "rkmk4", "--duration", "500", "--set", "time.sample_rate=200"]),  # 100,001, every load kind
+    ("detumbling.toml", ["--method", "dop853", "--duration", "1000", "--set", "time.sample_rate=100"]),  # 100,001, controller
+    ("gyrostat.toml", ["--method", "splitting", "--duration", "1000", "--set", "time.sample_rate=100"]),  # 100,001, rotors
+    ("wheel_slew.toml", ["--method", "rk4", "--duration", "60", "--set", "time.sample_rate=20"]),  # 1,201, driven rotors
 ])
 def test_a_long_run_with_loads_opens_in_the_viewer(cli, tmp_path, config, args):
-    """Rerun 0.41's viewer panicked on these files (exit 102, "transport error" from `snapshot`):
-    a visual chunk with no sample where the loads are evaluated sent an empty load-arrow chunk,
-    whose time range is the whole timeline.  The sink sends no empty chunk."""
+    """Every recording opens in the real viewer (headless, ``rotlab snapshot``), whatever its scene
+    kind and length.  Rerun 0.41's viewer panicked on the first two files (exit 102, "transport
+    error" from `snapshot`): a visual chunk with no sample where the loads are evaluated sent an
+    empty load-arrow chunk, whose time range is the whole timeline.  The sink sends no empty chunk."""
     from PIL import Image
 
     result = cli("run", str(CONFIGS / config), "-o", "long.rrd", "-q", *args)

@@ -333,7 +333,8 @@ class Body(_Model):
 ONE_QUANTITY = ({"omega", "omega_rpm", "omega_deg"},
                 {"quaternion", "axis_angle", "axis_angle_deg", "euler_313", "euler_313_deg"},
                 {"target", "target_euler_313_deg", "target_axis_angle_deg"},
-                {"spin", "spin_rpm", "momentum"})
+                {"spin", "spin_rpm", "momentum"},
+                {"sample_rate", "samples"})
 RPM = 2.0 * math.pi / 60.0  # rad/s per revolution per minute
 DEGREE = math.pi / 180.0  # rad per degree
 
