@@ -4,6 +4,7 @@ sent again, as the default, when the run ends: a torque peak late in the run sta
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
@@ -72,8 +73,10 @@ def test_the_plots_show_the_whole_run_and_the_band_of_a_fast_motion(cli, tmp_pat
             batch = chunk.to_record_batch()
             if "TimeAxis:view_range" in batch.schema.names:
                 spans.append(batch.column("TimeAxis:view_range").to_pylist()[-1])
-    # absolute, 0 to 100 s (ns), and the margin that keeps the last tick's label whole
-    assert spans and all(span == [{"start": 0, "end": round(100e9 * (1 + layout.TIME_MARGIN))}] for span in spans), spans[:2]
+    # absolute, 0 to 100 s (ns), and the margin that keeps the last tick's label whole; and the
+    # "Motion, recent" tab's plots: the 4 s before the cursor (200 samples: longer than 12 turns, 0.5 s)
+    whole, recent = [{"start": 0, "end": round(100e9 * (1 + layout.TIME_MARGIN))}], [{"start": -4_000_000_000, "end": 0}]
+    assert spans and all(span in (whole, recent) for span in spans) and whole in spans and recent in spans, spans[:2]
     policies = []
     for chunk in reader.stream().filter(content="/euler/theta", is_static=True).to_chunks():
         batch = chunk.to_record_batch()
@@ -81,3 +84,24 @@ def test_the_plots_show_the_whole_run_and_the_band_of_a_fast_motion(cli, tmp_pat
             policies += batch.column("SeriesLines:aggregation_policy").to_pylist()
     minmax = rr.components.AggregationPolicy.MinMax.value
     assert policies and all(p == [minmax] for p in policies), policies
+
+
+def test_a_long_run_has_its_recent_motion_beside_the_whole_run_and_a_short_one_not(cli, tmp_path):
+    """``visuals.recent_window``: 12 periods of the fastest motion, at least 200 samples, shown
+    only under a quarter of the run."""
+    from rotlab.recording import visuals
+
+    def view_names(path) -> set[str]:
+        reader = RrdReader(str(path))
+        return {batch.column("ViewBlueprint:display_name").to_pylist()[-1][0] for store in reader.blueprints()
+                for batch in (chunk.to_record_batch() for chunk in reader.stream(store=store).to_chunks())
+                if "ViewBlueprint:display_name" in batch.schema.names}
+
+    assert cli("run", str(CONFIGS / "lagrange.toml"), "-q", "-o", "long.rrd", "--duration", "100").exit_code == 0
+    assert cli("run", str(CONFIGS / "lagrange.toml"), "-q", "-o", "short.rrd", "--duration", "2").exit_code == 0
+    assert "θ nutation (deg), last 2 s" in view_names(tmp_path / "long.rrd")
+    assert not any(", last " in name for name in view_names(tmp_path / "short.rrd"))
+    t = np.linspace(0.0, 1000.0, 100_001)
+    omega = np.column_stack([np.cos(t), np.sin(t), np.zeros_like(t)])  # one turn in 2π s
+    assert visuals.recent_window(t, omega) == pytest.approx(12 * 2 * np.pi, rel=1e-9)
+    assert visuals.recent_window(t[:10_001], omega[:10_001]) is None  # 100 s: 75 s would be most of it

@@ -92,7 +92,7 @@ class Plot:
     contents: tuple[str, ...] = ()
 
 
-MOTION, ENERGY_TAB, EVENTS_TAB = "Motion", "Energy and loads", "Events"
+MOTION, ENERGY_TAB, EVENTS_TAB, RECENT_TAB = "Motion", "Energy and loads", "Events", "Motion, recent"
 MAX_PLOTS_ONE_TAB = 6  # up to a 2 × 3 grid in one tab; more: motion and energy in two tabs
 
 
@@ -137,14 +137,15 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
 
 def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None, active: str = MOTION,
               eye: tuple[np.ndarray, np.ndarray] | None = None, span: tuple[float, float] | None = None,
-              events: list[rrb.View] | None = None, portrait: bool = False) -> rrb.Blueprint:
+              events: list[rrb.View] | None = None, portrait: bool = False, recent: float | None = None) -> rrb.Blueprint:
     """The default layout: the 3D view (and the run panel as a tab) on the left, on the right the
     plots in tabs (``groups``), each a two-column grid; ``active`` is the tab shown first; ``eye``
     (position, look target) the 3D view's default camera (the one labels are laid out for).  Trails show the last ``trail_seconds`` before the time cursor
     (the whole paths stay, dimmed); legends sit in the top-right corner, above the data; the plots'
     time axis shows ``span`` (s: the whole run, not a window around the time cursor); ``events``:
     the views of the run's events, in a tab of their own (``EVENTS_TAB``); ``portrait``: the
-    torque-free phase portrait's 3D view beside the body's."""
+    torque-free phase portrait's 3D view beside the body's; ``recent`` (s): the motion's plots over
+    that window before the time cursor, in a tab of their own (``RECENT_TAB``)."""
     overrides = {}
     if trail_seconds is not None:
         window = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.cursor_relative(seconds=-trail_seconds),
@@ -152,6 +153,9 @@ def blueprint(groups: dict[str, list[Plot]], trail_seconds: float | None = None,
         overrides = {trail: rrb.VisibleTimeRanges([window]) for trail in TRAILS}
     names = [name for name, plot_list in groups.items() if plot_list]
     tabs = [rrb.Grid(*[_view(p, span) for p in groups[name]], grid_columns=2, name=name) for name in names]
+    if recent is not None:  # a long run: its motion over a window before the cursor, beside the whole run
+        tabs.append(rrb.Grid(*[_view(p, recent=recent) for p in groups[MOTION]], grid_columns=2, name=RECENT_TAB))
+        names.append(RECENT_TAB)
     if events:
         tabs.append(rrb.Grid(*events, grid_columns=2, name=EVENTS_TAB))
         names.append(EVENTS_TAB)
@@ -184,10 +188,12 @@ def whole_span(span: tuple[float, float] | None) -> rrb.TimeAxis | None:
         end=rrb.TimeRangeBoundary.absolute(seconds=span[1] + TIME_MARGIN * (span[1] - span[0]))))
 
 
-def _view(p: Plot, span: tuple[float, float] | None = None) -> rrb.TimeSeriesView:
-    whole = whole_span(span)
+def _view(p: Plot, span: tuple[float, float] | None = None, recent: float | None = None) -> rrb.TimeSeriesView:
+    """A plot over the whole ``span``, or over the ``recent`` seconds before the time cursor."""
+    whole = whole_span(span) if recent is None else rrb.TimeAxis(view_range=rrb.TimeRange(
+        start=rrb.TimeRangeBoundary.cursor_relative(seconds=-recent), end=rrb.TimeRangeBoundary.cursor_relative()))
     return rrb.TimeSeriesView(
-        origin=p.origin, name=p.name, axis_x=whole,
+        origin=p.origin, name=p.name if recent is None else f"{p.name}, last {recent:.3g} s", axis_x=whole,
         plot_legend=rrb.PlotLegend(corner="RightTop", visible=p.legend),
         axis_y=None if p.y_range is None else rrb.ScalarAxis(range=p.y_range),
     )

@@ -33,6 +33,7 @@ LABEL_BEYOND = 1.08  # a label sits this far along its arrow (tip = 1)
 FIELD_LABEL = 1.2  # body sizes along "up": the middle of the field's arrow, where its label is
 AXES_LENGTH, L_LENGTH, OMEGA_LENGTH = 1.25, 1.55, 1.85  # body sizes: tips apart when ω ∥ L ∥ an axis
 TRAIL_PERIODS = 3.0
+RECENT_PERIODS, RECENT_SAMPLES, RECENT_SHARE = 12.0, 200, 0.25  # the recent plots' window (``recent_window``)
 SINGULAR_SIN = 1e-9
 LOAD_LENGTH = 0.9  # body sizes: the largest load arrow (of the loads' own bound)
 
@@ -59,12 +60,10 @@ def dim(color: style.Color) -> style.Color:
     return (round(DIM * color[0]), round(DIM * color[1]), round(DIM * color[2]))
 
 
-def trail_window(t: np.ndarray, omega: np.ndarray) -> float:
-    """The trailing window (s): ``TRAIL_PERIODS`` periods of the body's fastest motion — the
-    shorter of one turn 2π/max|ω| and the period of the most varying ω component (twice the mean
-    spacing of its crossings of its mean) — within [span/20, span/6]."""
-    if t.shape[0] < 3:
-        return float(t[-1] - t[0]) if len(t) else 1.0
+def motion_period(t: np.ndarray, omega: np.ndarray) -> float:
+    """The period of the body's fastest motion (s): the shorter of one turn 2π/max|ω| and the
+    period of the most varying ω component (twice the mean spacing of its crossings of its mean);
+    the span itself when neither is seen."""
     span = float(t[-1] - t[0])
     k = int(np.argmax(np.std(omega, axis=0)))
     centred = omega[:, k] - np.mean(omega[:, k])
@@ -73,7 +72,27 @@ def trail_window(t: np.ndarray, omega: np.ndarray) -> float:
     fastest = float(np.max(np.linalg.norm(omega, axis=1)))
     if np.isfinite(fastest) and fastest > 0.0:
         period = min(period, 2.0 * np.pi / fastest)
-    return float(np.clip(TRAIL_PERIODS * period, span / 20, span / 6))
+    return period
+
+
+def trail_window(t: np.ndarray, omega: np.ndarray) -> float:
+    """The trailing window (s): ``TRAIL_PERIODS`` periods of the body's fastest motion
+    (``motion_period``), within [span/20, span/6]."""
+    if t.shape[0] < 3:
+        return float(t[-1] - t[0]) if len(t) else 1.0
+    span = float(t[-1] - t[0])
+    return float(np.clip(TRAIL_PERIODS * motion_period(t, omega), span / 20, span / 6))
+
+
+def recent_window(t: np.ndarray, omega: np.ndarray) -> float | None:
+    """The plots' recent window (s): ``RECENT_PERIODS`` periods of the fastest motion, at least
+    ``RECENT_SAMPLES`` samples long; None unless that is under ``RECENT_SHARE`` of the run (a
+    shorter run's whole-run plots show the detail)."""
+    if t.shape[0] < 3:
+        return None
+    span = float(t[-1] - t[0])
+    window = max(RECENT_PERIODS * motion_period(t, omega), RECENT_SAMPLES * span / (t.shape[0] - 1))
+    return window if window < RECENT_SHARE * span else None
 
 
 def euler_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:

@@ -242,6 +242,7 @@ def run_blueprint(traj: Trajectory, views: _Views, events: dict[str, EventLog] |
     min_energy_span = 0.02 * float(finite.max()) if finite.size else 0.0  # a constant energy is drawn flat
     unit = "deg" if visuals.degrees_wanted(traj.scene) else "rad"
     window = visuals.trail_window(traj.t, traj.omega) if len(traj.t) else None
+    recent = visuals.recent_window(traj.t, traj.omega) if len(traj.t) else None
     groups = layout.plots(all_series, unit, min_energy_span)
     active = layout.ENERGY_TAB if traj.scene.has_work else layout.MOTION  # loads at work: show them first
     if events and any(len(log.record) >= 2 for log in events.values()):  # a Poincaré section: the reason for the run
@@ -249,7 +250,8 @@ def run_blueprint(traj: Trajectory, views: _Views, events: dict[str, EventLog] |
     time_ = traj.scene.scenario.time  # the whole span the run is asked for, known from its first chunk on
     span = (time_.start, time_.end)
     return layout.blueprint(groups, window, active, labels.camera(visuals.reach(traj, views)), span=span,
-                            events=event_views(events, span) if events else None, portrait=portrait_view.has_polhodes(traj.scene))
+                            events=event_views(events, span) if events else None, portrait=portrait_view.has_polhodes(traj.scene),
+                            recent=recent)
 
 
 def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
