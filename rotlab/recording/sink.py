@@ -361,9 +361,11 @@ class RecordingSink:
         if self.live.serve_web:
             sinks.append(rr.GrpcSink(self.live.local_url))
             self.web_url = f"http://{self.live.local_host}:{self.live.web_port or 9090}/?url={self.live.local_url}"
-        self._live_rec.set_sinks(*sinks, default_blueprint=blueprint)
-        self._live_rec.send_blueprint(blueprint, make_active=True)
         assert self._feed is not None
+        # in the feed's thread, like every live call: attaching a sink flushes the stream into it,
+        # which waits for ever on a viewer that accepted the connection and never reads
+        self._feed.submit("set_sinks", *sinks, default_blueprint=blueprint)
+        self._feed.submit("send_blueprint", blueprint, make_active=True)
         self._feed.start()
 
     def update_blueprint(self, blueprint: rrb.Blueprint) -> None:
