@@ -335,3 +335,15 @@ def test_speeds_are_recorded_for_the_driven_rotors_whose_inertia_is_given(tmp_pa
     _, speeds = read_series(path, "/rotors/speed")
     _, momenta = read_series(path, "/rotors/momentum")
     assert speeds.shape[1] == 1 and momenta.shape[1] == 2
+
+
+def test_a_total_momentum_of_zero_is_plotted_flat_not_as_its_rounding(tmp_path):
+    """configs/wheel_slew.toml starts at rest: L = I ω + h stays 0 (1e-17 of rounding). Its plot's
+    range is at least 2% of the body's own |I ω|, so the line is flat at 0."""
+    from tests.test_blueprint_ranges import _ranges
+
+    traj = rotlab.simulate(CONFIGS / "wheel_slew.toml")
+    path = rotlab.save(tmp_path / "slew.rrd", traj)
+    own = float(np.max(np.abs(traj.omega @ traj.inertia)))
+    (low, high), *_ = _ranges(path, "L space (kg·m²/s)")
+    assert own > 0.01 and high - low >= 0.02 * own and np.max(np.abs(traj.L_space)) < 1e-12

@@ -96,15 +96,17 @@ MOTION, ENERGY_TAB, EVENTS_TAB, RECENT_TAB = "Motion", "Energy and loads", "Even
 MAX_PLOTS_ONE_TAB = 6  # up to a 2 × 3 grid in one tab; more: motion and energy in two tabs
 
 
-def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_energy_span: float) -> dict[str, list[Plot]]:
+def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_energy_span: float,
+          min_momentum_span: float = 0.0) -> dict[str, list[Plot]]:
     """The plots of a run by tab (``MOTION``, ``ENERGY_TAB``), in reading order; only those
-    whose entities exist in ``series``."""
+    whose entities exist in ``series``.  A constant energy, or L, is drawn flat in a range of at
+    least ``min_energy_span`` (J), ``min_momentum_span`` (kg·m²/s), not as its rounding magnified."""
     def rng(entity: str, legend: bool, min_span: float = 0.0):
         return plot_range(series[entity][0], legend, min_span) if entity in series else None
 
     motion = [
         Plot("ω body (rad/s)", OMEGA, True, rng(OMEGA, True)),
-        Plot("L space (kg·m²/s)", L_SPACE, True, rng(L_SPACE, True)),
+        Plot("L space (kg·m²/s)", L_SPACE, True, rng(L_SPACE, True, min_momentum_span)),
     ]
     if EULER_THETA in series:
         motion += [Plot(f"θ nutation ({angle_unit})", EULER_THETA, False, rng(EULER_THETA, False)),

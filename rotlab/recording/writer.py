@@ -240,10 +240,12 @@ def run_blueprint(traj: Trajectory, views: _Views, events: dict[str, EventLog] |
     energy = all_series[layout.ENERGY][0]
     finite = np.abs(energy[np.isfinite(energy)])
     min_energy_span = 0.02 * float(finite.max()) if finite.size else 0.0  # a constant energy is drawn flat
+    own = np.abs(traj.omega @ traj.inertia)  # |I ω| (user's frame): a total L of zero (a slew by wheels from rest) is drawn flat
+    min_momentum_span = 0.02 * float(np.max(own[np.isfinite(own)], initial=0.0))
     unit = "deg" if visuals.degrees_wanted(traj.scene) else "rad"
     window = visuals.trail_window(traj.t, traj.omega) if len(traj.t) else None
     recent = visuals.recent_window(traj.t, traj.omega) if len(traj.t) else None
-    groups = layout.plots(all_series, unit, min_energy_span)
+    groups = layout.plots(all_series, unit, min_energy_span, min_momentum_span)
     active = layout.ENERGY_TAB if traj.scene.has_work else layout.MOTION  # loads at work: show them first
     if events and any(len(log.record) >= 2 for log in events.values()):  # a Poincaré section: the reason for the run
         active = layout.EVENTS_TAB
