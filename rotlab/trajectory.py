@@ -128,7 +128,7 @@ class Trajectory:
     def rotor_speeds(self) -> np.ndarray | None:  # (N, n) rad/s, Ω of each driven rotor relative to the body (NaN: no inertia given)
         if self.rotor_momenta is None:
             return None
-        inertia = np.array([r.inertia or np.nan for r in self.scene.scenario.rotors if r.torque is not None])
+        inertia = np.array([rotor.inertia or np.nan for _, rotor in self.scene.scenario.driven_rotors()])
         return self.rotor_momenta / inertia
 
     @cached_property
@@ -206,7 +206,7 @@ class Trajectory:
         if self.work is not None:
             out["work"] = (self.work, "J")
         if self.rotor_momenta is not None:
-            for k, name in enumerate(driven_rotor_names(self.scene.scenario)):
+            for k, (name, _) in enumerate(self.scene.scenario.driven_rotors()):
                 out[f"rotor_momentum_{name}"] = (self.rotor_momenta[:, k], "N·m·s (J Ω)")
                 out[f"rotor_speed_{name}"] = (self.rotor_speeds[:, k], "rad/s (Ω, relative to the body)")
         for name, drift in self.invariants.items():
@@ -405,7 +405,3 @@ def _drifts(scene: Scene, q_p, L_p, L_space, invariant_energy, reference: Refere
                                reference.energy_scale, reference.L_norm, scene.field_direction, scene.symmetry_axis)
     return invariants.drifts(scene.invariants, series)
 
-
-def driven_rotor_names(scenario) -> list[str]:
-    """Each driven rotor's name: its own, else its place in ``[[rotors]]`` (1, 2, …)."""
-    return [rotor.name or str(k + 1) for k, rotor in enumerate(scenario.rotors) if rotor.torque is not None]

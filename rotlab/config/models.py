@@ -685,7 +685,7 @@ class Rotor(_Model):
                 raise _invalid("spin_rpm", exc.message()) from None
         return data
 
-    name: Annotated[str, Field(max_length=EVENT_NAME_LENGTH)] = ""  # how the recording labels it (default: wheel <k>)
+    name: Annotated[str, Field(max_length=EVENT_NAME_LENGTH)] = ""  # how reports and the recording name it (default: its place, 1, 2, …)
     axis: Vec3  # body frame, any length (the direction is used)
     inertia: PositiveReal | None = None  # J, kg·m², about the axis
     spin_rpm: Real | None = None  # rev/min relative to the body: stored converted, as ``spin``
@@ -940,7 +940,7 @@ class Scenario(_Model):
     output: Output = _table(Output)
     checks: Checks = _table(Checks)
     events: list[Event] = []
-    rotors: list[Rotor] = []  # a gyrostat's wheels at constant relative spin (``Rotor``)
+    rotors: list[Rotor] = []  # a gyrostat's wheels, at constant spin or driven (``Rotor``)
     sweep: Sweep | None = None  # used by `rotlab sweep`; `rotlab run` runs the base scenario
 
     @model_validator(mode="after")
@@ -953,24 +953,32 @@ class Scenario(_Model):
             seen.add(event.name)
         return self
 
-    def rotor_momentum(self, driven: bool = False) -> np.ndarray:
-        """h = Σ J Ω â of the rotors at constant spin (``driven``: of the driven ones, at t0), body
-        frame (N·m·s; zero without)."""
-        chosen = [r.momentum_vector() for r in self.rotors if (r.torque is not None) == driven]
+    def rotor_momentum(self, driven: bool | None = False) -> np.ndarray:
+        """h = Σ J Ω â of the rotors at constant spin (``driven``: of the driven ones, at t0; None:
+        of all, at t0), body frame (N·m·s; zero without)."""
+        chosen = [r.momentum_vector() for r in self.rotors if driven is None or (r.torque is not None) == driven]
         return np.sum(chosen, axis=0) if chosen else np.zeros(3)
+
+    def rotor_names(self) -> list[str]:
+        """Each rotor's name: its own, else its place in ``[[rotors]]`` (1, 2, …)."""
+        return [rotor.name or str(k + 1) for k, rotor in enumerate(self.rotors)]
+
+    def driven_rotors(self) -> list[tuple[str, Rotor]]:
+        """(name, rotor) of each driven rotor, in order: the state's columns after W are theirs."""
+        return [(name, rotor) for name, rotor in zip(self.rotor_names(), self.rotors) if rotor.torque is not None]
 
     def rotor_lines(self) -> list[str]:
         """The rotors, one Markdown list line each (body frame), and their momentum h (none without rotors)."""
         lines = []
-        for k, rotor in enumerate(self.rotors):
+        for name, rotor in zip(self.rotor_names(), self.rotors):
             given = (f"J = {rotor.inertia:.6g} kg·m², Ω = {rotor.spin:.6g} rad/s ({rotor.spin / RPM:.6g} rpm)"
                      if rotor.momentum is None else f"J Ω = {rotor.momentum:.6g} N·m·s" + (f", J = {rotor.inertia:.6g} kg·m²" if rotor.inertia else ""))
             drive = "" if rotor.torque is None else (f"; driven: u = {rotor.torque} N·m" if isinstance(rotor.torque, str) else
                                                      f"; driven by pd_control toward {list(rotor.torque.target)}")
-            lines.append(f"- rotor {rotor.name or k + 1}: axis {list(rotor.axis)} (body frame), {given}{drive}")
+            lines.append(f"- rotor {name}: axis {list(rotor.axis)} (body frame), {given}{drive}")
         if self.rotors:
-            h = self.rotor_momentum() + self.rotor_momentum(driven=True)
-            lines.append(f"- rotors' momentum h: {np.array2string(h, precision=6)} N·m·s at t0, body frame (L = I ω + h)")
+            lines.append(f"- rotors' momentum h: {np.array2string(self.rotor_momentum(driven=None), precision=6)} N·m·s at t0, body frame "
+                         "(L = I ω + h)")
         return lines
 
     @model_validator(mode="after")
@@ -978,8 +986,7 @@ class Scenario(_Model):
         """Each rotor's name its own (its place in the list when it has none); the body's inertia
         without the rotors' own, I − Σ J â âᵀ, positive definite (the body holds them)."""
         seen: set[str] = set()
-        for k, rotor in enumerate(self.rotors):
-            name = rotor.name or str(k + 1)
+        for k, name in enumerate(self.rotor_names()):
             if name in seen:
                 raise PydanticCustomError("rotlab", "rotor name '{name}' is used twice: give each rotor its own name",
                                           {"key": f"rotors.{k}.name", "name": name})

@@ -45,9 +45,7 @@ The work W (y[7]) is untouched: a conservative scene does no work (it stays 0).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
-
-from numba import types
+from numba import njit, types
 from numba.extending import overload
 
 from rotlab.core.dynamics import all_finite, store_row

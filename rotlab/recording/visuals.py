@@ -120,13 +120,13 @@ def rotor_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
         return {}
     from rotlab.config.models import RPM
     from rotlab.core.torques import drive_torques
-    from rotlab.trajectory import driven_rotor_names
 
-    names = [style.drawable(f"h {name}") for name in driven_rotor_names(traj.scene.scenario)]
+    driven = traj.scene.scenario.driven_rotors()
+    names = [style.drawable(f"h {name}") for name, _ in driven]
     torques = np.zeros(traj.rotor_momenta.shape)
     drive_torques(traj.t, traj._state, traj.scene.model, torques)
     out = {layout.ROTOR_MOMENTUM: (traj.rotor_momenta, names), layout.ROTOR_TORQUE: (torques, [n.replace("h ", "u ", 1) for n in names])}
-    known = [k for k, r in enumerate(r for r in traj.scene.scenario.rotors if r.torque is not None) if r.inertia is not None]
+    known = [k for k, (_, rotor) in enumerate(driven) if rotor.inertia is not None]
     if known:  # the speeds of those whose inertia is given
         out[layout.ROTOR_SPEED] = (traj.rotor_speeds[:, known] / RPM, [names[k].replace("h ", "Ω ", 1) for k in known])
     return out

@@ -169,7 +169,7 @@ class Scene:
     @cached_property
     def drive_momenta0(self) -> np.ndarray:
         """J Ω of each driven rotor at t0 (N·m·s): the state's columns after ``STATE_SIZE``."""
-        return np.array([r.momentum_value() for r in self.scenario.rotors if r.torque is not None], dtype=float)
+        return np.array([rotor.momentum_value() for _, rotor in self.scenario.driven_rotors()], dtype=float)
 
     @cached_property
     def rate_scale(self) -> float:
@@ -262,10 +262,10 @@ def _build_rigid(scenario: cfg.Scenario, user, user_function: Callable | None = 
 
 def _gyrostat(scenario: cfg.Scenario) -> tuple[str, str, None]:
     """A body with rotors: a gyrostat, whatever its loads (no closed form here; no symmetry invariant kept)."""
-    h = scenario.rotor_momentum() + scenario.rotor_momentum(driven=True)
-    driven = sum(r.torque is not None for r in scenario.rotors)
+    driven = len(scenario.driven_rotors())
     drives = f", {driven} of them driven" if driven else ""
-    return GYROSTAT, f"rotors carry the momentum h = {np.array2string(h, precision=4)} N·m·s at t0 (body frame){drives}", None
+    h = np.array2string(scenario.rotor_momentum(driven=None), precision=4)
+    return GYROSTAT, f"rotors carry the momentum h = {h} N·m·s at t0 (body frame){drives}", None
 
 
 def _common_direction(vectors: np.ndarray) -> np.ndarray | None:
