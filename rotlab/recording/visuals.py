@@ -277,8 +277,7 @@ def send_chunk(rec: rr.RecordingStream, traj: Trajectory, views, rows: slice, ns
     anchors: list[tuple[str, np.ndarray]] = []
     if views.geometry.field_up is not None:
         anchors.append(("g", np.broadcast_to(views.geometry.field_up * FIELD_LABEL * size, (n, 3))))
-    anchors += [("ω", drawn(views.omega_space[rows], views.omega_scale, OMEGA_LENGTH * size) * LABEL_BEYOND),
-                ("L", drawn(traj.L_space[rows], views.L_scale, L_LENGTH * size) * LABEL_BEYOND)]
+    anchors += [("ω", views.omega_arrow[rows] * LABEL_BEYOND), ("L", views.L_arrow[rows] * LABEL_BEYOND)]
     loads = _load_arrows(traj, views, rows)
     for symbol, (_, _, _, anchor) in loads.items():
         anchors.append((symbol, _fill(anchor, loads[symbol][0])))

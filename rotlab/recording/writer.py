@@ -300,6 +300,8 @@ class _Views:
     omega_space: np.ndarray  # (N, 3)
     omega_scale: float  # arrow length per rad/s
     L_scale: float  # arrow length per kg·m²/s
+    omega_arrow: np.ndarray  # (N, 3) the ω and L arrows as drawn (``visuals.drawn``), space frame
+    L_arrow: np.ndarray
     geometry: Geometry
     series: dict[str, tuple[np.ndarray, list[str]]]  # every time series: see ``series``
     load_scales: dict[str, float]  # arrow length per N and per N·m
@@ -314,7 +316,9 @@ def _views(traj: Trajectory, scales: tuple[float, float, dict[str, float]] | Non
                                                    _arrow_scale(traj.L_space, visuals.L_LENGTH * shape.size),
                                                    visuals.load_scales(traj, shape.size))
     geometry = scene_geometry(traj, unit_q, omega_space, omega_scale, reach=visuals.AXES_LENGTH * shape.size)
-    return _Views(shape, unit_q, omega_space, omega_scale, L_scale, geometry, series(traj), load_scales)
+    arrows = (visuals.drawn(omega_space, omega_scale, visuals.OMEGA_LENGTH * shape.size),
+              visuals.drawn(traj.L_space, L_scale, visuals.L_LENGTH * shape.size))
+    return _Views(shape, unit_q, omega_space, omega_scale, L_scale, *arrows, geometry, series(traj), load_scales)
 
 
 def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views, summary: RunSummary) -> None:
@@ -355,8 +359,8 @@ def _write_visual(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chun
     """The derived and visual series (everything not ``full_rate``) at the samples of ``traj``."""
     ns = _nanoseconds(traj.t)
     vectors = {
-        layout.OMEGA_ARROW: visuals.drawn(views.omega_space, views.omega_scale, visuals.OMEGA_LENGTH * views.shape.size),
-        layout.L_ARROW: visuals.drawn(traj.L_space, views.L_scale, visuals.L_LENGTH * views.shape.size),
+        layout.OMEGA_ARROW: views.omega_arrow,
+        layout.L_ARROW: views.L_arrow,
     }
     thin = {entity: values for entity, (values, _) in views.series.items() if not full_rate(entity)}
     for rows in _slices(traj.t.shape[0], chunk_rows):
