@@ -180,20 +180,21 @@ def _frame_drawer(ax, scene: dict, t: np.ndarray, q: np.ndarray, box: tuple[np.n
     def rgb(c):
         return np.array(c[:3]) / 255
 
-    def line(points: np.ndarray, color, rot: np.ndarray, width: float = 2.0) -> None:
-        """``points`` (a polyline, space frame), each piece in front of the body or behind it."""
-        hidden = behind(points, rot @ scene["center"], rot @ shape_rot, scene["half"], camera)
+    def line(points: np.ndarray, color, covered, width: float = 2.0) -> None:
+        """``points`` (a polyline, space frame), each piece in front of the body or behind it
+        (``covered``: the frame's ``behind`` test)."""
+        hidden = covered(points)
         cuts = np.flatnonzero(np.diff(hidden.astype(int))) + 1
         for piece in np.split(np.arange(len(points)), cuts):
             ends = np.arange(max(piece[0] - 1, 0), piece[-1] + 1)  # (joined to the previous piece)
             segment = points[ends]
             ax.plot(segment[:, 0], segment[:, 1], segment[:, 2], color=color, linewidth=width, zorder=0 if hidden[piece[0]] else 3)
 
-    def arrow(origin: np.ndarray, vector: np.ndarray, color, label: str, rot: np.ndarray, width: float = 2.0) -> None:
+    def arrow(origin: np.ndarray, vector: np.ndarray, color, label: str, covered, width: float = 2.0) -> None:
         """A shaft, a head, and ``label`` just beyond the tip."""
         tip = origin + vector
-        line(origin + np.linspace(0.0, 0.88, POINTS_PER_LINE)[:, None] * vector, color, rot, width)
-        front = not behind(tip[None, :], rot @ scene["center"], rot @ shape_rot, scene["half"], camera)[0]
+        line(origin + np.linspace(0.0, 0.88, POINTS_PER_LINE)[:, None] * vector, color, covered, width)
+        front = not covered(tip[None, :])[0]
         ax.quiver(*(origin + 0.86 * vector), *(0.14 * vector), color=color, linewidth=width, arrow_length_ratio=1.0, zorder=3 if front else 0)
         ax.text(*tip, f"  {label}", color=color, fontsize=10, ha="left", va="bottom", zorder=4 if front else 0)  # beside the tip: off parallel shafts
 
@@ -208,18 +209,23 @@ def _frame_drawer(ax, scene: dict, t: np.ndarray, q: np.ndarray, box: tuple[np.n
         unit = _at(np.array([when]), t, q)[0]
         unit = unit / np.linalg.norm(unit)
         rot = quat.to_matrix(unit)
+        centre, body_axes = rot @ scene["center"], rot @ shape_rot  # the body's ellipsoid in space, this frame
+
+        def covered(points: np.ndarray) -> np.ndarray:
+            return behind(points, centre, body_axes, scene["half"], camera)
+
         pts = body_points @ rot.T
         ax.plot_surface(pts[..., 0], pts[..., 1], pts[..., 2], color=body_color, linewidth=0, shade=True, alpha=1.0, zorder=1)
         for symbol, (t_a, origins, vectors, color) in scene["arrows"].items():  # (before the shorter body axes: ω ∥ L ∥ z stay apart)
             o, vec = _at(np.array([when]), t_a, origins)[0], _at(np.array([when]), t_a, vectors)[0]
             if np.all(np.isfinite(vec)) and np.all(np.isfinite(o)) and np.linalg.norm(vec) > 0:
-                arrow(o, vec, rgb(color), symbol, rot)
+                arrow(o, vec, rgb(color), symbol, covered)
         for k, (color, name) in enumerate(zip(style.XYZ, "xyz")):
-            arrow(np.zeros(3), rot[:, k] * scene["axes_length"], rgb(color), name, rot, width=1.6)
+            arrow(np.zeros(3), rot[:, k] * scene["axes_length"], rgb(color), name, covered, width=1.6)
         t_tip, tips = scene["tips"]
         recent = (t_tip <= when) & (t_tip >= when - scene["window"])
         if np.count_nonzero(recent) > 1:
-            line(tips[recent], rgb(style.AXIS_TRACE), rot, width=1.2)
+            line(tips[recent], rgb(style.AXIS_TRACE), covered, width=1.2)
         ax.text2D(0.03, 0.95, f"t = {when:.2f} s", transform=ax.transAxes, color="white", fontsize=11)
 
     return draw
