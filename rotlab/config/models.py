@@ -907,6 +907,7 @@ class Sweep(_Model):
     parameters: dict[str, SweepParameter]
     samples: Annotated[int, Field(ge=1, le=1_000_000, strict=True)] | None = None
     seed: Annotated[int, Field(ge=0, strict=True)] = 0
+    device: Literal["cpu", "cuda"] = "cpu"  # "cuda": the ensemble kernels on an NVIDIA GPU (``rotlab sweep --device``)
 
     @model_validator(mode="after")
     def _consistent(self) -> Sweep:

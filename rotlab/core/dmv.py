@@ -47,6 +47,8 @@ function of its state.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -207,10 +209,12 @@ def dmv_advance(y, times, out, i_start, substeps, max_steps, model, order, coeff
     only: only ``model.euler`` is read.  ``coefficients`` from ``modified_coefficients(moments)``."""
     inv1, inv2, inv3 = model.euler[3], model.euler[4], model.euler[5]
     q0, q1, q2, q3 = y[0], y[1], y[2], y[3]
-    m1, m2, m3 = y[4] / inv1, y[5] / inv2, y[6] / inv3
     steps = 0
     i = i_start
     while i < times.shape[0] and steps + substeps <= max_steps:
+        # m = I ω from the stored ω at every sample, not carried over: each sample interval starts
+        # afresh, so the samples do not depend on how a run is cut into calls (windows, ensembles)
+        m1, m2, m3 = y[4] / inv1, y[5] / inv2, y[6] / inv3
         t0 = times[i - 1]
         h = (times[i] - t0) / substeps
         j1, j2, j3 = modified_inverse_moments(m1, m2, m3, h, inv1, inv2, inv3, coefficients, order)
@@ -225,7 +229,7 @@ def dmv_advance(y, times, out, i_start, substeps, max_steps, model, order, coeff
             c1, c2, c3, alpha = dmv_rotation(h, m1, m2, m3, j1, j2, j3, f1, f2, f3)
             # Λ ← Λ ∘ (1 + e0, e), the unit quaternion (1, c)/√α with e0 = 1/√α − 1 formed without
             # cancellation; Λ + Λ ∘ (e0, e) rounds Λ once per step
-            root = np.sqrt(alpha)
+            root = math.sqrt(alpha)
             scale = 1.0 / root
             e0 = -(alpha - 1.0) * scale / (1.0 + root)
             e1, e2, e3 = c1 * scale, c2 * scale, c3 * scale

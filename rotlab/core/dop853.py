@@ -11,11 +11,14 @@ The Butcher tableau is read from SciPy's published DOP853 coefficient table.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
 from rotlab.core.dynamics import all_finite, count_at_or_below, next_piece, rhs_called, rhs_llvm_inlined, state_size, store_row
+from rotlab.core.targets import next_toward, work_matrix, work_vector
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -35,7 +38,7 @@ def _rms_scaled(v, y, rtol, atol):
     for m in range(v.shape[0]):
         x = v[m] / (atol + rtol * abs(y[m]))
         s += x * x
-    return np.sqrt(s / v.shape[0])
+    return math.sqrt(s / v.shape[0])
 
 
 @njit(cache=True)
@@ -46,8 +49,8 @@ def initial_step(t, y, f0, t_end, rtol, atol, model):
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, t_end - t)
     n = state_size(model)
-    y1 = np.empty(n)  # loops, not array expressions: those compile NumPy's ufunc machinery
-    f1 = np.empty(n)
+    y1 = work_vector(n)  # loops, not array expressions: those compile NumPy's ufunc machinery
+    f1 = work_vector(n)
     for m in range(n):
         y1[m] = y[m] + h0 * f0[m]
     rhs_called(t + h0, y1, f1, model)
@@ -76,12 +79,12 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     Returns (status, next sample index, t, next trial step).
     """
     n = state_size(model)  # (8; more with driven rotors)
-    K = np.empty((16, n))
-    y_new = np.empty(n)
-    tmp = np.empty(n)
-    F = np.empty((7, n))
-    E5v = np.empty(n)
-    E3v = np.empty(n)
+    K = work_matrix(16, n)
+    y_new = work_vector(n)
+    tmp = work_vector(n)
+    F = work_matrix(7, n)
+    E5v = work_vector(n)
+    E3v = work_vector(n)
     i = i_start
     attempts = 0
     rejected = False
@@ -89,7 +92,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
     b = count_at_or_below(breaks, t)  # next breakpoint after t
     fresh = True  # K[0] = f(t, y) is due: at the start and after a step that ended on a breakpoint
     scale = max(abs(t), abs(t_end))
-    min_step = 10.0 * (np.nextafter(scale, np.inf) - scale)
+    min_step = 10.0 * (next_toward(scale, np.inf) - scale)
     while i < times.shape[0] and attempts < max_steps:
         if fresh:  # at the start and after a breakpoint only: rhs called; inlined at the stages (hot)
             rhs_called(t, y, K[0], model)
@@ -109,7 +112,7 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
         h = t_new - t
         # a step ending on a breakpoint sees the loads' left limit: its stages stop just before it
         at_break = t_new == limit and limit != t_end
-        t_last = np.nextafter(t_new, -np.inf) if at_break else t_new
+        t_last = next_toward(t_new, -np.inf) if at_break else t_new
         for s in range(1, _STAGES + 1):  # the last (FSAL) stage is f(t_last, y_new): A[12, :12] = B
             _stage_state(s, h, y, K, tmp, n)
             rhs_llvm_inlined(t_last if s == _STAGES else min(t + _C[s] * h, t_last), tmp, K[s], model)
@@ -134,8 +137,8 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
         if e5 == 0.0 and e3 == 0.0:
             err = 0.0
         else:
-            err = h * e5 / np.sqrt((e5 + 0.01 * e3) * n)
-        if not np.isfinite(err):
+            err = h * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+        if not math.isfinite(err):
             if not all_finite(y_new) and h <= min_step * 1e3:
                 return NONFINITE, i, t, h
             err = 1e10

@@ -26,10 +26,12 @@ are plain compiled functions, called.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, types
-from numba.extending import overload
 
+from rotlab.core.targets import next_toward, overload
 from rotlab.core.state import P0, Q0, STATE_SIZE, WORK
 from rotlab.core.torques import conservative_torque, drive_rotors, nonconservative_torque, with_gyrostatic
 
@@ -100,7 +102,7 @@ def next_piece(t, t_end, breaks, b):
     while b < nb and breaks[b] <= t:
         b += 1
     if b < nb and breaks[b] <= t_end:
-        return breaks[b], np.nextafter(breaks[b], -np.inf), b
+        return breaks[b], next_toward(breaks[b], -np.inf), b
     return t_end, t_end, b
 
 
@@ -129,6 +131,6 @@ def store_row(out, i, y):
 @njit(cache=True)
 def all_finite(y):
     for k in range(y.shape[0]):
-        if not np.isfinite(y[k]):
+        if not math.isfinite(y[k]):
             return False
     return True

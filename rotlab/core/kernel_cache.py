@@ -21,7 +21,7 @@ import re
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1]
-NUMBA_CODE = re.compile(rb"@(?:numba\.)?(?:njit|overload|intrinsic|cfunc|generated_jit)\b")  # a definition of compiled code
+NUMBA_CODE = re.compile(rb"@(?:numba\.)?(?:\w+_)?(?:njit|overload|intrinsic|cfunc|generated_jit)\b")  # a definition of compiled code
 OURS = ("rotlab.", "rotlab_formulas_")  # module names of the functions stamped here
 
 

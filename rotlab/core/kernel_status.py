@@ -1,5 +1,6 @@
-"""What the fixed-step kernels share: their status codes and the end of a sample interval
-(``end_sample``: the state stored, or NONFINITE).
+"""What the kernels share: their status codes, the end of a sample interval (``end_sample``: the
+state stored, or NONFINITE) and ``WINDOW``, the samples per kernel call of a run (an adaptive
+method's steps stop at each window's end, so every caller that must reproduce a run uses it).
 
 Each kernel keeps its own time loop.  A loop written once around a per-method step (a scheme
 class whose step numba inlines, ``rk4`` and ``rkmk4`` sharing it) gave the same steps, bit for
@@ -14,6 +15,7 @@ from numba import njit
 from rotlab.core.dynamics import all_finite, store_row
 
 OK, NONFINITE = 0, 1  # a kernel's status
+WINDOW = 1 << 14  # samples per window when streaming (8 doubles each: 1 MB)
 
 
 @njit(cache=True, forceinline=True)

@@ -11,11 +11,11 @@ RK4 its order.
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from rotlab.core.dynamics import count_at_or_below, next_piece, rhs_llvm_inlined, state_size
 from rotlab.core.kernel_status import NONFINITE, OK, end_sample
+from rotlab.core.targets import work_vector
 
 
 
@@ -29,11 +29,11 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
     ``breaks``: sorted load breakpoints, may be empty).
     """
     n = state_size(model)  # (8; more with driven rotors)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    tmp = np.empty(n)
+    k1 = work_vector(n)
+    k2 = work_vector(n)
+    k3 = work_vector(n)
+    k4 = work_vector(n)
+    tmp = work_vector(n)
     steps = 0
     i = i_start
     breaks = model.breaks

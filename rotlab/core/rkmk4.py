@@ -19,12 +19,14 @@ to (θ, ω, W) from θ = 0 with ω̇, Ẇ from ``rhs``:
 
 from __future__ import annotations
 
-import numpy as np
+import math
+
 from numba import njit
 
 from rotlab.core.dynamics import count_at_or_below, next_piece, rhs_llvm_inlined, state_size
 from rotlab.core.kernel_status import NONFINITE, OK, end_sample
 from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
+from rotlab.core.targets import work_vector
 
 
 
@@ -33,12 +35,12 @@ def expmap(x, y, z):
     """Exp(θ) = (cos(|θ|/2), sin(|θ|/2) θ/|θ|) as (e0, e1, e2, e3) with e0 = cos(|θ|/2) − 1
     = −2 sin²(|θ|/4), free of cancellation for small |θ| (see ``_stage_orientation``)."""
     n2 = x * x + y * y + z * z
-    n = np.sqrt(n2)
+    n = math.sqrt(n2)
     if n <= 4.0 * SMALL_ANGLE:
         s4, c4 = sin_cos_small(0.25 * n)
     else:
-        s4 = np.sin(0.25 * n)
-        c4 = np.cos(0.25 * n)
+        s4 = math.sin(0.25 * n)
+        c4 = math.cos(0.25 * n)
     if n < 1e-4:
         f = 0.5 - n2 / 48.0 + n2 * n2 / 3840.0  # sin(n/2)/n, error < n⁶/10⁶
     else:
@@ -75,11 +77,11 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, model):
     steps per sample interval (contract of ``rotlab.core.rk4``, steps split at the load
     breaks in the same way)."""
     n = state_size(model)  # (8; more with driven rotors)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    tmp = np.empty(n)
+    k1 = work_vector(n)
+    k2 = work_vector(n)
+    k3 = work_vector(n)
+    k4 = work_vector(n)
+    tmp = work_vector(n)
     steps = 0
     i = i_start
     breaks = model.breaks

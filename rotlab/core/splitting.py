@@ -44,12 +44,14 @@ The work W (y[7]) is untouched: a conservative scene does no work (it stays 0).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, types
-from numba.extending import overload
 
 from rotlab.core.dynamics import all_finite, store_row
 from rotlab.core.kernel_status import NONFINITE, OK
+from rotlab.core.targets import overload
 from rotlab.core.torques import conservative_torque, has_forces
 
 
@@ -148,8 +150,8 @@ def _half_angle(tau, l, inv):
     if abs(quarter) <= SMALL_ANGLE:
         s4, c4 = sin_cos_small(quarter)
     else:
-        s4 = np.sin(quarter)
-        c4 = np.cos(quarter)
+        s4 = math.sin(quarter)
+        c4 = math.cos(quarter)
     d = -2.0 * s4 * s4
     s = 2.0 * s4 * c4
     return d, s, -2.0 * s * s, 2.0 * (s + s * d)

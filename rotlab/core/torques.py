@@ -19,12 +19,12 @@ import math
 
 import numpy as np
 from numba import njit, types
-from numba.extending import overload
 
 from rotlab.core.expressions import call_formulas, series_step, switch_limit
 from rotlab.core.faults import FORMULA_NOT_FINITE, record
 from rotlab.core.quaternion import N_PRODUCTS, qmul, rotate_quadratic, rotate_to_body
 from rotlab.core.state import P0, Q0, STATE_SIZE
+from rotlab.core.targets import overload
 
 # columns of a torque term, a table, an expression load (written by rotlab.scene.loads)
 F_POINT, F_FORCE = 0, 3
@@ -174,7 +174,7 @@ def terms_torque(t, y, terms):
         if terms[k, T_ON] <= t < terms[k, T_OFF]:
             mx, my, mz = terms[k, T_OFFSET], terms[k, T_OFFSET + 1], terms[k, T_OFFSET + 2]
             if terms[k, T_W] != 0.0:
-                s = np.sin(terms[k, T_W] * t + terms[k, T_PHASE])
+                s = math.sin(terms[k, T_W] * t + terms[k, T_PHASE])
                 mx += terms[k, T_AMP] * s
                 my += terms[k, T_AMP + 1] * s
                 mz += terms[k, T_AMP + 2] * s

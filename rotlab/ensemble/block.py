@@ -25,14 +25,19 @@ from rotlab.scene.scene import Scene
 from rotlab.trajectory import reference_of, runs_of
 
 
-def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs) -> dict:
-    from rotlab.ensemble.kernels import dop853_ensemble
+def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs,
+            device: str = "cpu") -> dict:
+    if device == "cuda":
+        from rotlab.ensemble.gpu import dop853_ensemble
+    else:
+        from rotlab.ensemble.kernels import dop853_ensemble
 
     dop853_ensemble(y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, counters, *outputs)
     return {"rtol": settings.rtol, "atol": settings.atol}
 
 
-def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs) -> dict:
+def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs,
+            device: str = "cpu") -> dict:
     from rotlab.ensemble.kernels import taylor_ensemble
 
     order = method.checked_order(settings)
@@ -43,8 +48,11 @@ def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndar
 
 # adaptive methods with an ensemble kernel, each run as its single run is (fixed-step ones all have one):
 # run(scene, method, settings, t, y0, counters, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept,
-# kept_t, kept_count) → the run's details
+# kept_t, kept_count, device=…) → the run's details
 ADAPTIVE_KERNELS = {"dop853": _dop853, "taylor": _taylor}
+# the methods whose kernels compile for an NVIDIA GPU (``rotlab.ensemble.gpu``; splitting's and taylor's
+# return arrays from compiled functions, which a GPU device function cannot)
+GPU_METHODS = ("rk4", "rkmk4", "dmv", "dop853")
 
 
 def has_ensemble_kernel(method: object) -> bool:
@@ -125,10 +133,28 @@ def shared_inputs(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return shared, applies, forces
 
 
+def gpu_unavailable() -> str | None:
+    """Why the ensemble cannot run on a GPU here (one line), or None when it can (``rotlab.ensemble.gpu``)."""
+    try:
+        from rotlab.ensemble import gpu
+    except ImportError as exc:
+        return f"numba's CUDA target is missing ({exc}): `pip install 'rotlab[cuda]'`"
+    return gpu.unavailable()
+
+
+def unsupported_on_gpu(method: object) -> str | None:
+    """Why ``method`` (a catalog entry) cannot run on the GPU (None when it can)."""
+    name = getattr(method, "name", method)
+    if name in GPU_METHODS:
+        return None
+    return f"method {name!r} has no GPU kernel: choose one of {', '.join(GPU_METHODS)} (solver.method), or run without --device cuda"
+
+
 def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, keep: list[int], stride: int,
-              given_axes: list[str | None]) -> BlockResult | InputError:
+              given_axes: list[str | None], device: str = "cpu") -> BlockResult | InputError:
     """Every scene of ``scenes`` (one body and loads) with ``method`` at ``settings`` over the sample
-    times ``t``; the samples of cases ``keep`` (positions in ``scenes``) kept every ``stride``-th.
+    times ``t``; the samples of cases ``keep`` (positions in ``scenes``) kept every ``stride``-th;
+    on ``device`` "cpu" (every core numba may use) or "cuda" (``rotlab.ensemble.gpu``).
     A fixed step that a case cannot take is that case's failure; an input error that concerns
     every case (an order the method does not offer) is returned."""
     from rotlab.ensemble import kernels
@@ -151,7 +177,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
         try:
             with parallel_chunksize(1):  # (cases of unequal cost: each thread takes the next case)
                 run = ADAPTIVE_KERNELS[method.name](scene, method, settings, t, y0, counters, case, shared, applies, forces, status, valid,
-                                                   last, acc, where, stride, kept, kept_t, kept_count)
+                                                   last, acc, where, stride, kept, kept_t, kept_count, device=device)
         except InputError as exc:
             return exc
         steps, rejected, evaluations = counters[:, 0].copy(), counters[:, 1].copy(), counters[:, 2].copy()
@@ -170,10 +196,16 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
                 failure[k] = str(exc)
                 details.append({})
         steps = np.zeros(b, dtype=np.int64)
-        with parallel_chunksize(1):
-            kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, scene.model,
-                                            method.kernel_args(scene, order), case, shared, applies, forces, status, valid, steps,
-                                            last, acc, where, stride, kept, kept_t, kept_count)
+        outputs = (case, shared, applies, forces, status, valid, steps, last, acc, where, stride, kept, kept_t, kept_count)
+        if device == "cuda":
+            from rotlab.ensemble import gpu
+
+            gpu.fixed_step_ensemble(method.kernel, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
+                                    *outputs)
+        else:
+            with parallel_chunksize(1):
+                kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, scene.model,
+                                                method.kernel_args(scene, order), *outputs)
         rejected = np.zeros(b, dtype=np.int64)
         evaluations = steps * method.evaluations_per_step(scene, order)
     for k in range(b):

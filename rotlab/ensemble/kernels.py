@@ -14,6 +14,8 @@ a case holds its N rows while it runs.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import literally, njit, prange, types
 from numba.extending import overload
@@ -21,10 +23,9 @@ from numba.extending import overload
 from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
-from rotlab.core.kernel_status import OK
-from rotlab.ensemble.observe import observe_rows
-from rotlab.methods.stepping import WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
-from rotlab.scene.loads import Model
+from rotlab.core.kernel_status import OK, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
+from rotlab.ensemble.observe import ACC_COLUMNS, observe_rows
+from rotlab.core.model import Model
 
 WINDOW = 4096  # samples per fixed-step kernel call within a case
 _ENTRIES: dict[tuple, object] = {}  # (method, argument types) → the compiled entry of ``fixed_step_ensemble``
@@ -93,7 +94,7 @@ def _finite_rows(rows, start, stop):
     non-finite state may have written rows past its last valid one (``stepping._valid_rows``)."""
     for i in range(start, stop):
         for m in range(rows.shape[1]):
-            if not np.isfinite(rows[i, m]):
+            if not math.isfinite(rows[i, m]):
                 return i
     return stop
 
@@ -163,25 +164,46 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
 
 @njit(cache=True)
 def _start_whole(y0, b, n, model, counts):
-    """Case b's state, its grid of ``n`` rows (row 0 its first sample), its own copy of the model
-    and its own ``counts`` counters (none shares a cache line or a reference count with another case's)."""
+    """Case b's state, its grid of ``n`` rows (row 0 its first sample), its own copy of the model,
+    its own ``counts`` counters and the scratch of ``report_whole`` (none shares a cache line or a
+    reference count with another case's: a row of ``acc`` shares cache lines with its neighbours')."""
     y = y0[b].copy()
     rows = np.empty((n, STATE_SIZE))
     store_row(rows, 0, y)
-    return y, rows, own_model(model), np.zeros(counts, dtype=np.int64)
+    return y, rows, own_model(model), np.zeros(counts, dtype=np.int64), np.empty(ACC_COLUMNS), np.zeros(1, dtype=np.int64)
 
 
 @njit(cache=True)
-def _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
-                  kept_count):
+def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted):
+    """One ``dop853`` case from ``rows[0]`` = y over the sample grid ``times``, as its single run
+    steps (in calls of ``chunk`` attempts on ``stepping.run_chunks``'s windows: a step stops at a
+    window's end): (status, samples made); ``counted``: accepted, rejected, evaluations."""
+    n = times.shape[0]
+    code, i, t, h, attempts, lo, hi = OK, 1, times[0], 0.0, 0, 0, min(n, RUN_WINDOW + 1)
+    while i < n and attempts < max_steps:
+        before = counted[0] + counted[1]
+        code, j, t, h = dop853_advance(y, t, h, times[lo:hi], rows[lo:hi], i - lo, times[hi - 1], rtol, atol,
+                                       min(chunk, max_steps - attempts), model, counted)
+        i = lo + j
+        attempts += counted[0] + counted[1] - before
+        if code != OK:
+            break
+        if i == hi < n:
+            lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
+    return code, i
+
+
+@njit(cache=True)
+def report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+                 kept_count, folded, count):
     """Case b's report from its whole grid of ``rows`` (samples [0, i) made, ``code`` its status):
-    its observables, its last valid state, its kept samples."""
+    its observables, its last valid state, its kept samples (``folded``, ``count``: scratch of
+    ``ACC_COLUMNS`` floats and one integer)."""
     if code != OK:
         i = _finite_rows(rows, 1, i)
-    folded = np.empty(acc.shape[1])  # (this case's own: a row of ``acc`` shares cache lines with its neighbours')
     observe_rows(times, rows, 0, i, True, case[b], shared, applies, forces, folded)
     store_row(acc, b, folded)
-    count = np.zeros(1, dtype=np.int64)
+    count[0] = 0
     if keep[b] >= 0:
         _keep(rows, times, 0, i, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
         _keep_last(rows[i - 1], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
@@ -194,24 +216,13 @@ def _report_whole(b, code, i, rows, times, case, shared, applies, forces, status
 def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces,
                     status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations)."""
-    n = times.shape[0]
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted = _start_whole(y0, b, n, model, 3)
-        code, i, t, h, attempts, lo, hi = OK, 1, times[0], 0.0, 0, 0, min(n, RUN_WINDOW + 1)
-        while i < n and attempts < max_steps:  # in calls of ``chunk`` attempts on ``stepping.run_chunks``'s windows
-            before = counted[0] + counted[1]
-            code, j, t, h = dop853_advance(y, t, h, times[lo:hi], rows[lo:hi], i - lo, times[hi - 1], rtol, atol,
-                                           min(chunk, max_steps - attempts), mine, counted)
-            i = lo + j
-            attempts += counted[0] + counted[1] - before
-            if code != OK:
-                break
-            if i == hi < n:
-                lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
+        y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, 3)
+        code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted)
         for m in range(3):
             counters[b, m] = counted[m]
-        _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
-                      kept_count)
+        report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+                     kept_count, folded, count)
 
 
 @njit(cache=True, parallel=True)
@@ -221,7 +232,7 @@ def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, c0, T
     lever_force, flags; ``counters[b, 0]``: steps)."""
     n = times.shape[0]
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted = _start_whole(y0, b, n, model, 1)
+        y, rows, mine, counted, folded, count = _start_whole(y0, b, n, model, 1)
         code, i, t, lo, hi = OK, 1, times[0], 0, min(n, RUN_WINDOW + 1)
         while i < n and counted[0] < max_steps:  # in calls of ``chunk`` steps on ``stepping.run_chunks``'s windows
             code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, min(chunk, max_steps - counted[0]),
@@ -232,5 +243,5 @@ def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, c0, T
             if i == hi < n:
                 lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
         counters[b, 0] = counted[0]
-        _report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
-                      kept_count)
+        report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+                     kept_count, folded, count)

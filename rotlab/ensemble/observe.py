@@ -112,7 +112,7 @@ def observe_rows(times, rows, start, stop, first, case, shared, applies, forces,
     for i in range(start, stop):
         t = times[i]
         c = case[CASE_FLIP] * rows[i, 4] + case[CASE_FLIP + 1] * rows[i, 5] + case[CASE_FLIP + 2] * rows[i, 6]
-        if not (first and i == start) and np.sign(c) * np.sign(c_prev) < 0.0:
+        if not (first and i == start) and ((c > 0.0 and c_prev < 0.0) or (c < 0.0 and c_prev > 0.0)):  # (signs opposite, neither 0)
             crossing = t_prev - c_prev * (t - t_prev) / (c - c_prev)
             if reversals == 0.0:
                 first_t = crossing

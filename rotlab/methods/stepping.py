@@ -31,6 +31,7 @@ import numpy as np
 from rotlab import interrupts
 from rotlab.core import faults
 from rotlab.core.dynamics import STATE_SIZE
+from rotlab.core.kernel_status import WINDOW
 from rotlab.methods.base import ProgressCallback, Solution
 
 if TYPE_CHECKING:
@@ -44,7 +45,6 @@ CHUNK_STEPS = 1 << 18
 # ends at most this many steps past it; a call's budget ends between two steps, so the steps are the same
 WATCHED_STEPS = 1 << 12
 STALL_FACTOR = 10  # an adaptive run whose pace needs this many times the steps it has left stops (``stall_message``)
-WINDOW = 1 << 14  # samples per window when streaming (8 doubles each: 1 MB)
 
 
 class RowConsumer(Protocol):

@@ -20,6 +20,7 @@ from rotlab.config import models as cfg
 from rotlab.core import opcodes
 from rotlab.core.dynamics import euler_coefficients
 from rotlab.core.expressions import aux_rows
+from rotlab.core.model import Drives, Expressions, Model
 from rotlab.core.quaternion import from_matrix, rotate_to_space_array
 from rotlab.core.torques import (
     EX_COLUMNS, EX_FORCE, EX_FRAME, EX_OFF, EX_ON, EX_POINT, EX_PROGRAMS, EX_RATE, EX_UP, EX_UP2, F_COLUMNS, F_FORCE, F_POINT,
@@ -29,32 +30,6 @@ from rotlab.scene.load_kinds import BODY as BODY_FRAME, Compiling, drive_formula
 from rotlab.scene.user_torque import UserTorque
 
 UNNAMED = ("formula x", "formula y", "formula z")  # what a failure calls a formula built without names
-
-
-class Expressions(NamedTuple):
-    """Expression loads: one row each (columns ``rotlab.core.torques.EX_*``), their programs
-    (``code`` rows (opcode, argument), CONST arguments index ``consts``) and the user's frame."""
-
-    rows: np.ndarray  # (n, EX_COLUMNS)
-    code: np.ndarray  # (m, 3) int64: opcode, argument, first auxiliary Taylor row
-    consts: np.ndarray  # (c,)
-    axes: np.ndarray  # (3, 3) principal axes in the user's body frame (r_U = axes r_P)
-    axes_q: np.ndarray  # (4,) Λ of axes
-    moments: np.ndarray  # (3,) principal moments
-    depth: int  # the deepest program's stack
-    aux: int  # auxiliary rows of the Taylor-mode tape (``rotlab.core.expressions.aux_rows``)
-    fn: int  # address of the compiled programs (``rotlab.scene.formulas``): fn(load, component, inputs…)
-
-
-class Drives(NamedTuple):
-    """A gyrostat's driven rotors: each one's drive torque u (N·m) as a formula — rows of the
-    scene's programs after the loads' (component 0), sharing their code and compiled function —
-    and its unit axis (principal frame).  Rotor j's momentum J Ω is the state's column
-    ``STATE_SIZE + j``, and d(J Ω)/dt = u."""
-
-    ex: Expressions  # one row per driven rotor
-    offset: int  # rotor j's formula is the programs' load ``offset + j``
-    axes: np.ndarray  # (n, 3) unit axes, principal frame
 
 
 class LoadArrays(NamedTuple):
@@ -71,24 +46,6 @@ class LoadArrays(NamedTuple):
     formula_names: tuple[tuple[str, str, str], ...] = ()  # per expression row: what each component is, for failures
     user_function: Callable | None = None  # the Python function behind ``user``, for its failures
     drives: Drives | None = None  # driven rotors (``compile_loads``'s ``rotors``)
-
-
-class Model(NamedTuple):
-    """What a kernel needs of a scene, as one value: Euler coefficients, load breakpoints and
-    the load groups, each None when the scene has none (it then compiles to nothing)."""
-
-    euler: np.ndarray  # (6,) ``rotlab.core.dynamics.euler_coefficients``
-    breaks: np.ndarray  # sorted load breakpoints (may be empty)
-    forces: np.ndarray | None
-    terms: np.ndarray | None
-    tables: np.ndarray | None
-    table_t: np.ndarray | None
-    table_v: np.ndarray | None
-    damping: float | None
-    expressions: Expressions | None
-    user: UserTorque | None
-    rotors: np.ndarray | None = None  # (3,) the constant rotors' momentum h (principal frame): the gyrostatic torque h × ω
-    drives: Drives | None = None  # driven rotors: their momenta are state columns 8, 9, … (``Drives``)
 
 
 def build_model(loads: LoadArrays, moments: np.ndarray, like: Model | None = None, rotors: np.ndarray | None = None) -> Model:

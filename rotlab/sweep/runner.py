@@ -199,11 +199,12 @@ def run_sweep_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases:
 @dataclass(frozen=True)
 class EnsemblePlan:
     """How a sweep over initial states runs in the ensemble kernels: the method (its name: a plan
-    travels to Dask workers), its settings, why."""
+    travels to Dask workers), its settings, why, and the device ("cpu" or "cuda")."""
 
     method_name: str
     settings: Any
     why: str
+    device: str = "cpu"
 
     @property
     def method(self) -> Any:
@@ -213,32 +214,56 @@ class EnsemblePlan:
 
 
 def ensemble_plan(p: SweepPlan) -> EnsemblePlan | None:
-    """The ensemble plan of ``p``, or None when its cases run one by one: something other than
-    initial conditions varies, the method (as asked, or ``auto``'s one choice for all cases:
-    ``shared_choice``) has no ensemble kernel, some cases choose their own, the first case is
-    invalid, or the loads cannot run in a parallel kernel (``rotlab.ensemble.block.unsupported_scene``)."""
+    """The ensemble plan of ``p``, or None when its cases run one by one (``ensemble_plan_or_why``)."""
+    plan = ensemble_plan_or_why(p)
+    return plan if isinstance(plan, EnsemblePlan) else None
+
+
+def ensemble_plan_or_why(p: SweepPlan, device: str = "cpu") -> EnsemblePlan | str:
+    """The ensemble plan of ``p`` on ``device``, or why its cases run one by one: something other
+    than initial conditions varies, the method (as asked, or ``auto``'s one choice for all cases:
+    ``shared_choice``) has no ensemble kernel (on a GPU: ``GPU_METHODS``), some cases choose their
+    own, the first case is invalid, or the loads cannot run in a parallel kernel
+    (``rotlab.ensemble.block.unsupported_scene``)."""
     if not initial_only(p.base.sweep.parameters):
-        return None
-    from rotlab.ensemble.block import has_ensemble_kernel, unsupported_scene
+        return "only initial conditions may vary (the cases share one body, loads and method)"
+    from rotlab.ensemble.block import has_ensemble_kernel, unsupported_on_gpu, unsupported_scene
     from rotlab.methods.base import Settings
     from rotlab.methods.registry import get_method
     from rotlab.scene.scene import build_scene
 
     first = case_scenario(p.raw, p.base, p.cases[0], p.source)
     if isinstance(first, InputError):
-        return None
+        return f"case 0 is invalid: {first}"
     scene = build_scene(first)
     solver = p.base.solver
     if solver.method == "auto":
         choice = shared_choice(p)
         if choice is None or choice.own:
-            return None
+            return "auto chooses a method for each case: give solver.method"
         method, settings, why = get_method(choice.method), choice.settings, f"one method for all cases: {choice.label}: {choice.why}"
     else:
         method, settings, why = get_method(solver.method), Settings.of(solver), "as the file asks"
-    if not has_ensemble_kernel(method) or unsupported_scene(scene) is not None or method.unsupported(scene) is not None:
-        return None
-    return EnsemblePlan(method.name, settings, why)
+    refusal = (None if has_ensemble_kernel(method) else f"method {method.name!r} has no ensemble kernel") or unsupported_scene(scene) \
+        or method.unsupported(scene) or (unsupported_on_gpu(method) if device == "cuda" else None)
+    if refusal is not None:
+        return refusal
+    return EnsemblePlan(method.name, settings, why, device)
+
+
+def cuda_plan(p: SweepPlan, where: str) -> EnsemblePlan:
+    """The plan of a sweep asked to run on an NVIDIA GPU (``where``: the option or key that asked),
+    or an ``InputError`` naming ``where`` and why it cannot: no GPU (never a silent CPU run), or
+    cases the ensemble kernels do not take."""
+    from rotlab.ensemble.block import gpu_unavailable
+
+    why = gpu_unavailable()
+    if why is not None:
+        raise InputError(where, why)
+    plan = ensemble_plan_or_why(p, "cuda")
+    if isinstance(plan, str):
+        raise InputError(where, f"the GPU runs the ensemble kernels only, and this sweep cannot use them: {plan}")
+    return plan
 
 
 def block_size(size: int, seconds: float) -> int:
@@ -271,7 +296,7 @@ def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cas
         stride = max(1, math.ceil(t.shape[0] / COMPARISON_SAMPLES))
         keep = [k for k, (case, _) in enumerate(runnable) if compared is None or case.index in compared]
         given = [None if s.scenario.checks.flip_period is None else s.scenario.checks.flip_period.axis for s in scenes]
-        block = run_block(scenes, plan.method, plan.settings, t, keep, stride, given)
+        block = run_block(scenes, plan.method, plan.settings, t, keep, stride, given, device=plan.device)
         if isinstance(block, InputError):
             raise block
         name = plan.method.name
@@ -337,7 +362,7 @@ def chunk_size(cases: int, workers: int) -> int:
 
 def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, timeout: float | None = None,
               retries: int = 0, warm: WarmWorkers | None = None, on_outcomes: Callable[[list[CaseOutcome]], None] | None = None,
-              compared: frozenset[int] | None = None) -> SweepRun:
+              compared: frozenset[int] | None = None, ensemble: EnsemblePlan | None = None) -> SweepRun:
     """Every case: the ensemble kernels when ``ensemble_plan`` allows (on ``jobs`` threads), else local worker processes
     or the Dask cluster at ``dask_address``.  Local workers take the cases in chunks
     (``chunk_size``), validate and run them and report them together; a chunk whose worker died is
@@ -347,12 +372,13 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     local workers started for ``run_sweep_chunk`` while the sweep was planned (``start_workers``).
     ``on_outcomes``: given the outcomes as cases finish (else they are returned, in case order);
     ``compared``: the cases that keep their series (default: ``compared_cases`` when the outcomes
-    go to ``on_outcomes``, else every case)."""
+    go to ``on_outcomes``, else every case); ``ensemble``: the ensemble plan decided already
+    (``cuda_plan``), else ``ensemble_plan``'s."""
     if compared is None and on_outcomes is not None:
         compared = compared_cases(len(p.cases))
     collected: list[CaseOutcome] = []
     deliver = on_outcomes or collected.extend
-    plan = ensemble_plan(p) if timeout is None else None
+    plan = ensemble if ensemble is not None else ensemble_plan(p) if timeout is None else None
     if warm is not None and (plan is not None or dask_address is not None):
         warm.release()  # the cases run elsewhere: the warm workers would only take the cores
     if plan is not None and dask_address is None:
@@ -377,7 +403,8 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         if stopped is not None:
             note = f"not finished (the sweep received {signal.Signals(stopped).name})"
             deliver([CaseOutcome(case.index, case.values, "error", message=note) for case in p.cases[done:]])
-        how = (f"ensemble kernels ({plan.method_name}, {used} thread{'s' if used > 1 else ''} over cases, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
+        where = "one thread per case on the GPU" if plan.device == "cuda" else f"{used} thread{'s' if used > 1 else ''} over cases"
+        how = (f"ensemble kernels ({plan.method_name}, {where}, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
                f"{time.perf_counter() - started:.3g} s for all cases; {plan.why})")
         return SweepRun(sorted(collected, key=lambda o: o.index), how, stopped)
     if dask_address is not None:

@@ -1,0 +1,234 @@
+"""The ensemble on an NVIDIA GPU (``rotlab.ensemble.gpu``): body-steps/s and cases/s, and each
+case's result against the same case run alone on the CPU.
+
+    python benchmarks/bench_gpu.py [--cases 1048576] [--check 256] [--threads 32 64 128]
+    NUMBA_ENABLE_CUDASIM=1 python benchmarks/bench_gpu.py --cases 8 --check 8   # on a machine without a GPU
+
+Imports numpy, numba (with numba-cuda) and rotlab's kernel modules only — no configuration,
+recording or CLI (no pydantic, rerun or typer) — so it runs as it is on a bare GPU machine.  The
+models are built by hand:
+
+* heavy asymmetric top: A, B, C = 2, 3, 4 g·m², m g = 0.5 N down at p = (0.01, 0.02, 0.05) m
+  (body), ω₀ = (1, 2, 30) rad/s dispersed by 5% per case, Λ₀ = 1;
+* free asymmetric body: the same moments, ω₀ = (0.1, 3, 0.1) rad/s (near the intermediate axis)
+  dispersed by 5%.
+
+Rows: ``rk4`` on the top (h = 1e-3 s, 1,000 steps a case, 11 samples), ``dmv`` order 8 on the free
+body (h = 1e-3 s, 1,000 steps), ``dop853`` on the top (10 s at 10 samples/s, rtol 1e-10, atol
+1e-12, its own steps: the mean is printed).  "kernel" times the kernel on device arrays
+(``cuda.synchronize`` before and after, median of ``--repeats``); "end to end" times
+``gpu.fixed_step_ensemble`` / ``gpu.dop853_ensemble`` with their copies to and from the device.
+"max diff vs CPU" compares the first ``--check`` cases with each case run alone by the same
+compiled kernel on the CPU (``difference``: last state relative to each component's scale, the
+nutation's cosine, the flip times, the max relative drifts); the step counts must be equal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from numba import config, cuda
+
+from rotlab.core import targets
+from rotlab.core.dmv import dmv_advance, modified_coefficients
+from rotlab.core.dynamics import euler_coefficients
+from rotlab.core.model import Model
+from rotlab.core.rk4 import rk4_advance
+from rotlab.ensemble import gpu, observe as ob
+from rotlab.ensemble.kernels import dop853_case, report_whole
+
+MOMENTS = np.array([2e-3, 3e-3, 4e-3])
+FORCES = np.array([[0.01, 0.02, 0.05, 0.0, 0.0, -0.5]])  # [p (body, m), F (space, N)]
+RTOL, ATOL = 1e-10, 1e-12
+MAX_STEPS = 10**9
+
+
+def model_of(forces: np.ndarray | None) -> Model:
+    return Model(euler_coefficients(MOMENTS), np.zeros(0), forces, None, None, None, None, None, None, None)
+
+
+def initial_states(cases: int, omega: tuple[float, float, float], seed: int = 7) -> np.ndarray:
+    y0 = np.zeros((cases, 8))
+    y0[:, 0] = 1.0
+    y0[:, 4:7] = np.array(omega) * (1.0 + 0.05 * np.random.default_rng(seed).standard_normal((cases, 3)))
+    return y0
+
+
+def observe_inputs(y0: np.ndarray, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``observe``'s per-case and shared columns for Λ₀ = 1 (so L_space₀ = L₀), z the flip axis,
+    e = d = z, and which invariants apply (energy, |Λ|, and L·up under gravity, |L|, L_space without)."""
+    L0 = y0[:, 4:7] * MOMENTS
+    T0 = 0.5 * np.einsum("bi,bi->b", y0[:, 4:7], L0)
+    V0 = -(forces[:, None, :3] * forces[:, None, 3:]).sum(axis=(0, 2)) if len(forces) else 0.0
+    case = np.zeros((y0.shape[0], ob.CASE_COLUMNS))
+    case[:, ob.CASE_FLIP + 2] = case[:, ob.CASE_E + 2] = case[:, ob.CASE_D + 2] = 1.0
+    case[:, ob.CASE_H0] = T0 + V0
+    case[:, ob.CASE_SCALE] = np.abs(T0 + V0)
+    case[:, ob.CASE_L0:ob.CASE_L0 + 3] = case[:, ob.CASE_LS0:ob.CASE_LS0 + 3] = L0
+    case[:, ob.CASE_LNORM] = np.linalg.norm(L0, axis=1)
+    shared = np.zeros(ob.SHARED_COLUMNS)
+    shared[ob.SHARED_MOMENTS:ob.SHARED_MOMENTS + 3] = MOMENTS
+    shared[ob.SHARED_UP + 2] = 1.0
+    gravity = len(forces) > 0
+    applies = np.array([True, True, not gravity, not gravity, gravity, False])
+    return case, shared, applies
+
+
+class Outputs:
+    """The ensemble's output arrays for ``cases`` cases (no case's samples kept)."""
+
+    def __init__(self, cases: int) -> None:
+        self.counters = np.zeros((cases, 3), dtype=np.int64)
+        self.status, self.valid, self.steps = (np.zeros(cases, dtype=np.int64) for _ in range(3))
+        self.last, self.acc = np.zeros((cases, 8)), np.zeros((cases, ob.ACC_COLUMNS))
+        self.keep = np.full(cases, -1, dtype=np.int64)
+        self.kept, self.kept_t, self.kept_count = np.zeros((1, 1, 8)), np.zeros((1, 1)), np.zeros(cases, dtype=np.int64)
+
+    def tail(self) -> tuple:
+        return self.status, self.valid, self.last, self.acc, self.keep, 1, self.kept, self.kept_t, self.kept_count
+
+
+def median_time(call, repeats: int) -> float:
+    seconds = []
+    for _ in range(repeats):
+        cuda.synchronize()
+        start = time.perf_counter()
+        call()
+        cuda.synchronize()
+        seconds.append(time.perf_counter() - start)
+    return float(np.median(seconds))
+
+
+def cpu_alone(kind: str, y0, times, substeps, model, extra, case, shared, applies, forces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(last states, folded observables, steps) of each case run alone on the CPU by the same kernel."""
+    b, n = y0.shape[0], times.shape[0]
+    out = Outputs(b)
+    for k in range(b):
+        y, rows = y0[k].copy(), np.zeros((n, 8))
+        rows[0] = y
+        counted = np.zeros(3, dtype=np.int64)
+        if kind == "dop853":
+            code, i = dop853_case(y, times, rows, RTOL, ATOL, MAX_STEPS, 1 << 18, model, counted)
+        else:
+            advance = rk4_advance if kind == "rk4" else dmv_advance
+            code, i, counted[0] = advance(y, times, rows, 1, substeps, MAX_STEPS, model, *extra)
+        report_whole(k, code, i, rows, times, case, shared, applies, forces, out.status, out.valid, out.last, out.acc, out.keep, 1,
+                     out.kept, out.kept_t, out.kept_count, np.zeros(ob.ACC_COLUMNS), np.zeros(1, dtype=np.int64))
+        out.steps[k] = counted[0]
+    return out.last, out.acc, out.steps
+
+
+def difference(last: np.ndarray, acc: np.ndarray, cpu_last: np.ndarray, cpu_acc: np.ndarray, case: np.ndarray) -> float:
+    """The largest of: |Δ state| / max |state| per component, |Δ cos ϑ_max|, |Δ t| / t of the first
+    and last flip, and |Δ max relative drift| (each drift in units of its scale, ``observe.max_drifts``)."""
+    scale = np.maximum(np.abs(cpu_last).max(axis=0), 1e-300)
+    worst = float(np.max(np.abs(last - cpu_last) / scale))
+    worst = max(worst, float(np.max(np.abs(acc[:, ob.ACC_MIN_COS] - cpu_acc[:, ob.ACC_MIN_COS]))))
+    for column in (ob.ACC_FIRST, ob.ACC_LAST):
+        a, b = acc[:, column], cpu_acc[:, column]
+        if not np.array_equal(np.isnan(a), np.isnan(b)):
+            return np.inf
+        seen = ~np.isnan(b)
+        if seen.any():
+            worst = max(worst, float(np.max(np.abs(a[seen] - b[seen]) / np.abs(b[seen]))))
+    return max(worst, float(np.max(np.abs(ob.max_drifts(acc, case) - ob.max_drifts(cpu_acc, case)))))
+
+
+def row(name: str, cases: int, steps: float, kernel_s: float, end_s: float, diff: float, same_steps: bool, identical: bool) -> None:
+    print(f"| {name} | {'on' if targets.CUDA_FMA else 'off'} | {gpu.THREADS} | {cases:,} | {steps:,.0f} | {kernel_s * 1e3:,.1f} | "
+          f"{end_s * 1e3:,.1f} | {cases * steps / kernel_s / 1e9:,.2f} | {cases / kernel_s / 1e6:,.3f} | {diff:.1e} | "
+          f"{'yes' if same_steps else 'NO'} | {'yes' if identical else 'no'} |")
+
+
+def bench_fixed(kind: str, cases: int, check: int, repeats: int) -> None:
+    forces = FORCES if kind == "rk4" else np.zeros((0, 6))
+    model = model_of(FORCES if kind == "rk4" else None)
+    advance = rk4_advance if kind == "rk4" else dmv_advance
+    extra = () if kind == "rk4" else (8, modified_coefficients(MOMENTS))
+    y0 = initial_states(cases, (1.0, 2.0, 30.0) if kind == "rk4" else (0.1, 3.0, 0.1))
+    times = np.linspace(0.0, 1.0, 11)
+    substeps = np.full(cases, 100, dtype=np.int64)
+    case, shared, applies = observe_inputs(y0, forces)
+    out = Outputs(cases)
+    call = lambda: gpu.fixed_step_ensemble(advance, y0, times, substeps, MAX_STEPS, model, extra, case, shared, applies, forces,  # noqa: E731
+                                           out.status, out.valid, out.steps, out.last, out.acc, out.keep, 1, out.kept, out.kept_t,
+                                           out.kept_count)
+    call()  # compiles
+    end_to_end = median_time(call, repeats)
+    d = {k: cuda.to_device(v) for k, v in dict(y0=y0, times=times, substeps=substeps, case=case, shared=shared, applies=applies,
+                                                forces=forces, status=out.status, valid=out.valid, steps=out.steps, last=out.last,
+                                                acc=out.acc, keep=out.keep, kept=out.kept, kept_t=out.kept_t,
+                                                kept_count=out.kept_count).items()}
+    kernel = gpu._fixed_step_kernel(advance)
+    launch = lambda: kernel[gpu.blocks(cases), gpu.THREADS](  # noqa: E731
+        d["y0"], d["times"], d["substeps"], MAX_STEPS, gpu._tuple_to_device(model), gpu._tuple_to_device(extra), d["case"],
+        d["shared"], d["applies"], d["forces"], d["status"], d["valid"], d["steps"], d["last"], d["acc"], d["keep"], 1, d["kept"],
+        d["kept_t"], d["kept_count"])
+    kernel_only = median_time(launch, repeats)
+    k = min(check, cases)
+    last, acc, steps = cpu_alone(kind, y0[:k], times, 100, model, extra, case[:k], shared, applies, forces)
+    diff = difference(out.last[:k], out.acc[:k], last, acc, case[:k])
+    row(kind, cases, float(np.mean(out.steps)), kernel_only, end_to_end, diff, np.array_equal(steps, out.steps[:k]),
+        np.array_equal(last, out.last[:k]))
+
+
+def bench_dop853(cases: int, check: int, repeats: int) -> None:
+    model = model_of(FORCES)
+    y0 = initial_states(cases, (1.0, 2.0, 30.0))
+    times = np.linspace(0.0, 10.0, 101)
+    case, shared, applies = observe_inputs(y0, FORCES)
+    out = Outputs(cases)
+    call = lambda: gpu.dop853_ensemble(y0, times, RTOL, ATOL, MAX_STEPS, 1 << 18, model, out.counters, case, shared, applies,  # noqa: E731
+                                       FORCES, *out.tail())
+    call()
+    end_to_end = median_time(call, repeats)
+    d = {k: cuda.to_device(v) for k, v in dict(y0=y0, times=times, case=case, shared=shared, applies=applies, forces=FORCES,
+                                                counters=out.counters, status=out.status, valid=out.valid, last=out.last, acc=out.acc,
+                                                keep=out.keep, kept=out.kept, kept_t=out.kept_t, kept_count=out.kept_count).items()}
+    grid = cuda.device_array((cases, times.shape[0], 8))
+    launch = lambda: gpu._dop853_kernel[gpu.blocks(cases), gpu.THREADS](  # noqa: E731
+        0, d["y0"], d["times"], grid, RTOL, ATOL, MAX_STEPS, 1 << 18, gpu._tuple_to_device(model), d["counters"], d["case"], d["shared"],
+        d["applies"], d["forces"], d["status"], d["valid"], d["last"], d["acc"], d["keep"], 1, d["kept"], d["kept_t"], d["kept_count"])
+    kernel_only = median_time(launch, repeats)
+    k = min(check, cases)
+    last, acc, steps = cpu_alone("dop853", y0[:k], times, 0, model, (), case[:k], shared, applies, FORCES)
+    diff = difference(out.last[:k], out.acc[:k], last, acc, case[:k])
+    row("dop853", cases, float(np.mean(out.counters[:, 0])), kernel_only, end_to_end, diff, np.array_equal(steps, out.counters[:k, 0]),
+        np.array_equal(last, out.last[:k]))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, nargs="+", default=[1 << 20])
+    parser.add_argument("--dop853-cases", type=int, nargs="+", default=[1 << 18])
+    parser.add_argument("--check", type=int, default=256, help="cases compared with the CPU run alone")
+    parser.add_argument("--threads", type=int, nargs="+", default=[gpu.THREADS], help="threads per block to try")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--only", nargs="+", default=["rk4", "dmv", "dop853"])
+    parser.add_argument("--fma", action="store_true", help="compile with fused multiply-adds (targets.CUDA_FMA)")
+    args = parser.parse_args()
+    targets.CUDA_FMA = args.fma
+    if config.ENABLE_CUDASIM:
+        print("numba's CUDA simulator: the figures below are not a GPU's")
+    else:
+        device = cuda.get_current_device()
+        print(f"device: {device.name.decode() if isinstance(device.name, bytes) else device.name}, "
+              f"compute capability {device.compute_capability}")
+    print("| method | FMA | threads/block | cases | steps/case | kernel ms | end to end ms | G body-steps/s (kernel) | M cases/s (kernel) "
+          "| max diff vs CPU | same steps | last states identical |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for threads in args.threads:
+        gpu.THREADS = threads
+        for kind in ("rk4", "dmv"):
+            if kind in args.only:
+                for cases in args.cases:
+                    bench_fixed(kind, cases, args.check, args.repeats)
+        if "dop853" in args.only:
+            for cases in args.dop853_cases:
+                bench_dop853(cases, args.check, args.repeats)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,147 @@
+"""One compiled source, two targets: the CPU (numba) and NVIDIA GPUs (numba-cuda).
+
+The kernels are written once, as ``@njit`` functions; a CUDA kernel (``rotlab.ensemble.gpu``)
+calls them as device functions, and numba-cuda compiles them again for the GPU.  What the two
+targets do differently is declared here, once:
+
+* ``overload``: numba's ``overload`` for the CPU, registered for CUDA as well once
+  ``enable_cuda`` has run (numba-cuda keeps its own registry of overloads);
+* ``work_vector(n)``, ``work_matrix(rows, n)``: ``np.empty`` on the CPU; on a GPU a thread's own
+  local array (``n`` and ``rows`` compile-time constants there: the state's size, a method's
+  stage count);
+* ``next_toward(x, y)``: ``np.nextafter(x, y)`` (libdevice's ``nextafter`` on a GPU).
+
+rotlab's CUDA kernels are compiled without contracting a·b + c into one fused multiply-add
+(NVVM's ``-fma=0``; ``CUDA_FMA``), as numba compiles for the CPU: each operation rounds as it does
+there, so a case's numbers on the GPU are the CPU's (FMA's single rounding changed a Dzhanibekov
+flip's samples by 1e-8 after 4,000 steps, the separatrix amplifying 1e-16).
+
+Nothing here imports numba-cuda until ``enable_cuda`` is called.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numba import types
+from numba.extending import overload as cpu_overload
+
+_FOR_CUDA: list[tuple[Callable, dict, Callable]] = []  # (function, overload options, implementation) to register for CUDA
+_GPU_ONLY: list[tuple[Callable, dict, Callable]] = []  # CUDA implementations of the functions declared below
+_cuda_enabled = False  # the overloads are registered for numba-cuda (never under the simulator)
+CUDA_FMA = False  # contract a·b + c into fused multiply-adds in rotlab's CUDA kernels (faster; not the CPU's rounding)
+
+
+def overload(func: Callable, **options) -> Callable[[Callable], Callable]:
+    """``numba.extending.overload(func, **options)`` for the CPU, and for CUDA once ``enable_cuda`` runs."""
+    def register(impl: Callable) -> Callable:
+        cpu_overload(func, **options)(impl)
+        _FOR_CUDA.append((func, options, impl))
+        if _cuda_enabled:
+            _register_cuda(func, options, impl)
+        return impl
+    return register
+
+
+def _gpu_overload(func: Callable, **options) -> Callable[[Callable], Callable]:
+    """``func``'s implementation on a GPU (registered by ``enable_cuda``)."""
+    def register(impl: Callable) -> Callable:
+        _GPU_ONLY.append((func, options, impl))
+        return impl
+    return register
+
+
+def _register_cuda(func: Callable, options: dict, impl: Callable) -> None:
+    from numba.cuda.extending import overload as cuda_overload
+
+    cuda_overload(func, **options)(impl)
+
+
+def enable_cuda() -> None:
+    """Register every overload for numba-cuda (once per process).  Under numba's CUDA simulator
+    (``NUMBA_ENABLE_CUDASIM=1``) kernels run as Python calling the CPU's compiled functions: nothing to register."""
+    global _cuda_enabled
+    if not hasattr(np, "row_stack"):  # NumPy ≥ 2.4 removed it; some numba-cuda releases still call it
+        np.row_stack = np.vstack
+    from numba import config
+
+    if _cuda_enabled or config.ENABLE_CUDASIM:
+        return
+    for func, options, impl in _GPU_ONLY + _FOR_CUDA:
+        _register_cuda(func, options, impl)
+    _compile_rotlab_kernels_without_fma()
+    _cuda_enabled = True
+
+
+def _compile_rotlab_kernels_without_fma() -> None:
+    """numba-cuda compiles a kernel with NVVM's default ``-fma=1``; rotlab's own kernels get
+    ``-fma=0`` unless ``CUDA_FMA`` (a wrapper of ``numba.cuda.dispatcher.compile_cuda``, which
+    every kernel's compilation calls with its NVVM options; other kernels are left as they are)."""
+    from numba.cuda import dispatcher
+
+    compile_cuda = dispatcher.compile_cuda
+
+    def compile_rotlab_exactly(pyfunc, *args, nvvm_options=None, **kwargs):
+        if getattr(pyfunc, "__module__", "").startswith("rotlab.") and not CUDA_FMA:
+            nvvm_options = {**(nvvm_options or {}), "fma": False}
+        return compile_cuda(pyfunc, *args, nvvm_options=nvvm_options, **kwargs)
+
+    dispatcher.compile_cuda = compile_rotlab_exactly
+
+
+def work_vector(n):
+    """An uninitialised float64 vector of ``n`` (a compiled function's scratch)."""
+    raise NotImplementedError("compiled code only")
+
+
+def work_matrix(rows, n):
+    """An uninitialised float64 (rows, n) matrix (a compiled function's scratch)."""
+    raise NotImplementedError("compiled code only")
+
+
+def next_toward(x, y):
+    """The float64 next to ``x`` in the direction of ``y`` (``np.nextafter``)."""
+    raise NotImplementedError("compiled code only")
+
+
+@cpu_overload(work_vector, inline="always")
+def _work_vector_cpu(n):
+    return lambda n: np.empty(n)
+
+
+@cpu_overload(work_matrix, inline="always")
+def _work_matrix_cpu(rows, n):
+    return lambda rows, n: np.empty((rows, n))
+
+
+@cpu_overload(next_toward, inline="always")
+def _next_toward_cpu(x, y):
+    return lambda x, y: np.nextafter(x, y)
+
+
+@_gpu_overload(work_vector, inline="always")
+def _work_vector_gpu(n):
+    if not isinstance(n, types.IntegerLiteral):  # numba retries with the literal
+        return None
+    from numba import cuda
+
+    size = n.literal_value
+    return lambda n: cuda.local.array(size, types.float64)
+
+
+@_gpu_overload(work_matrix, inline="always")
+def _work_matrix_gpu(rows, n):
+    if not (isinstance(rows, types.IntegerLiteral) and isinstance(n, types.IntegerLiteral)):
+        return None
+    from numba import cuda
+
+    shape = (rows.literal_value, n.literal_value)
+    return lambda rows, n: cuda.local.array(shape, types.float64)
+
+
+@_gpu_overload(next_toward, inline="always")
+def _next_toward_gpu(x, y):
+    from numba.cuda import libdevice
+
+    return lambda x, y: libdevice.nextafter(x, y)

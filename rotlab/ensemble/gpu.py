@@ -1,0 +1,245 @@
+"""The ensemble kernels on an NVIDIA GPU (numba-cuda): one thread per case.
+
+Each thread runs its case with the method's own compiled kernel — the same source as the CPU's,
+compiled again for the device (``rotlab.core.targets``) — and reduces its observables on the
+device (``rotlab.ensemble.observe``); only the kept cases' samples come back.  The calls mirror
+``rotlab.ensemble.kernels`` argument for argument, so ``rotlab.ensemble.block`` runs a block on
+either device.
+
+* Fixed-step methods call their kernel once per sample interval (a fixed step starts each
+  interval afresh, so the calls change no bit) on two rows of the thread's local memory: a case
+  costs no device memory whatever its length.
+* ``dop853`` steps across samples and stops at the windows of its single run
+  (``kernel_status.WINDOW``), as the CPU ensemble does (``kernels.dop853_case``): each case's
+  whole sample grid lives in device memory, (n, 8) doubles, and the cases run in batches that fit
+  ``MEMORY_FRACTION`` of the device's free memory.
+
+Importing this module imports numba-cuda (not rotlab's configuration, recording or CLI):
+``benchmarks/bench_gpu.py`` runs it on a machine with numpy and numba-cuda alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import config, cuda, types
+
+from rotlab.core import targets
+from rotlab.core.dynamics import STATE_SIZE, store_row
+from rotlab.core.kernel_status import OK
+from rotlab.ensemble.kernels import _keep, _keep_last, dop853_case, report_whole
+from rotlab.ensemble.observe import ACC_COLUMNS, observe_rows
+
+THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
+MEMORY_FRACTION = 0.5  # of the device's free memory, for dop853's sample grids
+SIMULATED_MEMORY = 1 << 26  # bytes, the simulator's device memory (batches of a few cases: tests cover the batches)
+
+
+def unavailable() -> str | None:
+    """Why the GPU ensemble cannot run here (one line), or None when it can: a CUDA device, or
+    numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``, for tests)."""
+    try:
+        available = cuda.is_available()
+    except Exception as exc:  # a driver that fails to load
+        return f"no usable CUDA GPU ({type(exc).__name__}: {exc})"
+    if not available:
+        return ("no CUDA GPU found (numba.cuda.is_available() is false): run on the CPU (--device cpu), or on a machine with an "
+                "NVIDIA GPU and `pip install 'rotlab[cuda]'`")
+    try:
+        targets.enable_cuda()
+    except ImportError as exc:  # numba's own, older CUDA target: no ``numba.cuda.extending.overload``
+        return f"numba-cuda is missing ({exc}): `pip install 'rotlab[cuda]'`"
+    return None
+
+
+class _NoneArguments:
+    """numba-cuda prepares no argument of type None (a ``Model``'s absent load group): it is
+    passed as the null pointer that numba's data model of None (an opaque pointer) expects."""
+
+    def prepare_args(self, ty, val, stream=None, retr=None):
+        if isinstance(ty, types.NoneType):
+            return types.uint64, 0
+        return ty, val
+
+
+def _simulated_arrays(kernel):
+    """Under numba's CUDA simulator a kernel runs as Python and its array arguments arrive wrapped
+    (``FakeWithinKernelCUDAArray``), which the compiled functions it calls cannot take: each is
+    passed as the NumPy array it wraps (an ``ArgHint`` of the simulator's own module)."""
+    import importlib
+
+    hint = importlib.import_module(type(kernel).__module__).ArgHint
+
+    class Plain(hint):
+        def to_device(self, retr, stream=0):
+            return self.value
+
+    class Unwrap:
+        def prepare_args(self, ty, val, stream=0, retr=None):
+            if isinstance(val, np.ndarray) and val.ndim > 0:
+                return ty, Plain(val)
+            inner = getattr(val, "_ary", None)  # a simulated device array
+            return ty, (Plain(inner) if isinstance(inner, np.ndarray) else val)
+
+    kernel.extensions = [Unwrap()]
+    return kernel
+
+
+def _jit(kernel):
+    """``cuda.jit`` whose None arguments are passed (see ``_NoneArguments``), linked without
+    link-time optimisation: nvJitLink's code generation fuses multiply-adds whatever NVVM was
+    told (``targets.CUDA_FMA``), and NVVM already optimises a kernel with every function it calls.
+    Under the simulator, its arrays unwrapped."""
+    if config.ENABLE_CUDASIM:
+        return _simulated_arrays(cuda.jit(kernel))
+    return cuda.jit(extensions=[_NoneArguments()], lto=False)(kernel)
+
+
+_FIXED: dict[object, object] = {}  # a fixed-step method's kernel → its CUDA kernel
+
+
+def _fixed_step_kernel(advance):
+    """The CUDA kernel that runs the fixed-step ``advance`` (``rotlab.methods.fixed_step``'s
+    signature) for every case: ``kernels.fixed_step_ensemble``'s outputs, one sample interval a call."""
+    kernel = _FIXED.get(advance)
+    if kernel is not None:
+        return kernel
+
+    def fixed_step(y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, status, valid, steps, last, acc,
+                   keep, stride, kept, kept_t, kept_count):
+        b = cuda.grid(1)
+        if b >= y0.shape[0] or substeps[b] <= 0:
+            return
+        n = times.shape[0]
+        y = cuda.local.array(STATE_SIZE, types.float64)
+        rows = cuda.local.array((2, STATE_SIZE), types.float64)
+        folded = cuda.local.array(ACC_COLUMNS, types.float64)
+        count = cuda.local.array(1, types.int64)
+        for m in range(STATE_SIZE):
+            y[m] = y0[b, m]
+        store_row(rows, 0, y)
+        observe_rows(times, rows, 0, 1, True, case[b], shared, applies, forces, folded)
+        count[0] = 0
+        if keep[b] >= 0:
+            _keep(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
+        code, i, taken = OK, 1, 0
+        while i < n:
+            code, j, done = advance(y, times[i - 1:i + 1], rows, 1, substeps[b], max_steps - taken, model, *extra)
+            taken += done
+            if code != OK or j == 1:  # non-finite (nothing stored), or the step budget cannot reach the sample
+                break
+            observe_rows(times[i - 1:i + 1], rows, 1, 2, False, case[b], shared, applies, forces, folded)
+            if keep[b] >= 0:
+                _keep(rows, times[i - 1:i + 1], 1, 2, i - 1, stride, kept[keep[b]], kept_t[keep[b]], count)
+            store_row(rows, 0, rows[1])
+            i += 1
+        if keep[b] >= 0:
+            _keep_last(rows[0], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
+        status[b], valid[b], steps[b] = code, i, taken
+        store_row(last, b, rows[0])
+        store_row(acc, b, folded)
+        kept_count[b] = count[0]
+
+    kernel = _FIXED[advance] = _jit(fixed_step)
+    return kernel
+
+
+@_jit
+def _dop853_kernel(first, y0, times, grid, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces, status,
+                   valid, last, acc, keep, stride, kept, kept_t, kept_count):
+    """Cases first … first + len(grid) − 1 of ``kernels.dop853_ensemble``, case b's samples in
+    ``grid[b − first]``."""
+    b = first + cuda.grid(1)
+    if b >= min(y0.shape[0], first + grid.shape[0]):
+        return
+    rows = grid[b - first]
+    y = cuda.local.array(STATE_SIZE, types.float64)
+    counted = cuda.local.array(3, types.int64)
+    folded = cuda.local.array(ACC_COLUMNS, types.float64)
+    count = cuda.local.array(1, types.int64)
+    for m in range(STATE_SIZE):
+        y[m] = y0[b, m]
+    for m in range(3):
+        counted[m] = 0
+    store_row(rows, 0, y)
+    code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted)
+    for m in range(3):
+        counters[b, m] = counted[m]
+    report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+                 kept_count, folded, count)
+
+
+def blocks(cases: int) -> int:
+    """Blocks of ``THREADS`` threads for one thread per case."""
+    return max(1, (cases + THREADS - 1) // THREADS)
+
+
+def _device_array(a: np.ndarray):
+    """``a`` in device memory; an empty one as an empty view of a one-row allocation (a null
+    pointer would do for its kernels, which never read it, but not for every driver call)."""
+    a = np.ascontiguousarray(a)
+    if a.size == 0:
+        return cuda.to_device(np.zeros((1,) + a.shape[1:], dtype=a.dtype))[:0]
+    return cuda.to_device(a)
+
+
+def _to_device(arrays: dict[str, np.ndarray]) -> dict[str, object]:
+    return {name: _device_array(a) for name, a in arrays.items()}
+
+
+def _tuple_to_device(values: tuple) -> tuple:
+    """A tuple (a ``Model``, a method's extra arguments) with its arrays in device memory (the
+    simulator's kernels take the NumPy arrays themselves)."""
+    if config.ENABLE_CUDASIM:
+        return values
+    moved = (_device_array(v) if isinstance(v, np.ndarray) else v for v in values)
+    return type(values)(*moved) if hasattr(values, "_fields") else tuple(moved)
+
+
+def _copy_back(device: dict[str, object], host: dict[str, np.ndarray]) -> None:
+    for name, a in host.items():
+        device[name].copy_to_host(a)
+
+
+def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, status, valid, steps,
+                        last, acc, keep, stride, kept, kept_t, kept_count) -> None:
+    """``kernels.fixed_step_ensemble`` on the GPU, for the fixed-step kernel ``advance`` (a
+    ``@njit`` function, not a method's name); the outputs are written to the host arrays given."""
+    targets.enable_cuda()
+    inputs = _to_device({"y0": y0, "times": times, "substeps": substeps, "case": case, "shared": shared, "applies": applies,
+                         "forces": forces, "keep": keep})
+    outputs = {"status": status, "valid": valid, "steps": steps, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
+               "kept_count": kept_count}
+    out = _to_device(outputs)
+    _fixed_step_kernel(advance)[blocks(y0.shape[0]), THREADS](
+        inputs["y0"], inputs["times"], inputs["substeps"], max_steps, _tuple_to_device(model), _tuple_to_device(extra), inputs["case"],
+        inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["steps"], out["last"], out["acc"],
+        inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
+    _copy_back(out, outputs)
+
+
+def cases_per_batch(cases: int, samples: int) -> int:
+    """How many ``dop853`` cases' sample grids fit ``MEMORY_FRACTION`` of the device's free memory."""
+    free, _ = cuda.current_context().get_memory_info()
+    free = min(free, SIMULATED_MEMORY) if config.ENABLE_CUDASIM else free  # (the simulator says ∞)
+    return max(1, min(cases, int(free * MEMORY_FRACTION) // (samples * STATE_SIZE * 8)))
+
+
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces, status, valid, last,
+                    acc, keep, stride, kept, kept_t, kept_count) -> None:
+    """``kernels.dop853_ensemble`` on the GPU (the outputs written to the host arrays given)."""
+    targets.enable_cuda()
+    inputs = _to_device({"y0": y0, "times": times, "case": case, "shared": shared, "applies": applies, "forces": forces, "keep": keep})
+    outputs = {"counters": counters, "status": status, "valid": valid, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
+               "kept_count": kept_count}
+    out = _to_device(outputs)
+    device_model = _tuple_to_device(model)
+    b, n = y0.shape[0], times.shape[0]
+    batch = cases_per_batch(b, n)
+    grid = cuda.device_array((batch, n, STATE_SIZE))
+    for first in range(0, b, batch):
+        _dop853_kernel[blocks(min(batch, b - first)), THREADS](
+            first, inputs["y0"], inputs["times"], grid, rtol, atol, max_steps, chunk, device_model, out["counters"], inputs["case"],
+            inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["last"], out["acc"], inputs["keep"],
+            stride, out["kept"], out["kept_t"], out["kept_count"])
+    del grid
+    _copy_back(out, outputs)

@@ -1,0 +1,168 @@
+"""The ensemble on a GPU (``rotlab.ensemble.gpu``, ``rotlab sweep --device cuda``).
+
+Without a GPU (CI) the GPU kernels run in numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``, set
+before numba is imported: each check runs in a subprocess): the same kernel source, threads run
+as Python calling the CPU's compiled functions.  So these tests pin the GPU path's logic — one
+sample interval per fixed-step call, dop853's batches of sample grids, the observables, the kept
+samples — against the CPU ensemble, bit for bit; the figures and the compiled device code come
+from a real GPU (benchmarks/bench_gpu.py, docs/benchmarks.md).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import CONFIGS
+
+ROOT = Path(__file__).resolve().parents[1]
+SIMULATOR = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
+NO_GPU = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+
+
+def _python(code: str, env: dict, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], env=env, cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def _rotlab(args: list[str], env: dict, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "rotlab", *args], env=env, cwd=cwd, capture_output=True, text=True, timeout=600)
+
+
+def test_every_gpu_method_gives_the_cpu_ensembles_numbers_bit_for_bit():
+    """rk4, rkmk4, dmv and dop853 on four scenes (free body near the intermediate axis, heavy top,
+    general loads, gyrostat): status, samples, steps, evaluations, flip period, nutation, every
+    max drift, the kept samples (every 3rd, cases 0 and 4) and the failures are ``np.array_equal``
+    to the CPU ensemble's; dop853's sample grids in batches of 2 cases (3 launches for 5 cases)."""
+    result = _python("""
+        import numpy as np
+        from rotlab.ensemble import gpu
+        from rotlab.ensemble.block import run_block
+        from rotlab.methods.base import Settings
+        from rotlab.methods.registry import get_method
+        from tests.test_ensemble import _scenes
+
+        RUNS = [("sweep_flip.toml", 3.0, "rk4", {"step": 1e-3}), ("sweep_flip.toml", 3.0, "dmv", {"step": 5e-3, "order": 8}),
+                ("sweep_flip.toml", 3.0, "dop853", {}), ("lagrange.toml", 0.5, "rk4", {"step": 1e-4}),
+                ("lagrange.toml", 0.5, "dop853", {}), ("general.toml", 0.5, "rkmk4", {"step": 1e-3}),
+                ("general.toml", 0.5, "dop853", {}), ("gyrostat.toml", 4.0, "rk4", {"step": 1e-2}), ("gyrostat.toml", 4.0, "dop853", {})]
+        FIELDS = ("status", "valid", "steps", "rejected", "evaluations", "flip_period", "reversals", "max_nutation_deg")
+        for config, end, method, changes in RUNS:
+            scenes = _scenes(config, end, method, changes)
+            t = scenes[0].scenario.time.sample_times()
+            gpu.SIMULATED_MEMORY = 2 * t.shape[0] * 8 * 8 / gpu.MEMORY_FRACTION  # two cases' grids a launch
+            args = (scenes, get_method(method), Settings.of(scenes[0].scenario.solver), t, [0, 4], 3, [None] * len(scenes))
+            cpu, cuda = run_block(*args), run_block(*args, device="cuda")
+            assert all(np.array_equal(getattr(cpu, f), getattr(cuda, f), equal_nan=True) for f in FIELDS), (config, method)
+            assert cpu.max_drift.keys() == cuda.max_drift.keys() and all(np.array_equal(cpu.max_drift[k], cuda.max_drift[k]) for k in cpu.max_drift)
+            assert cpu.kept.keys() == cuda.kept.keys() == {0, 4}
+            assert all(np.array_equal(cpu.kept[k][0], cuda.kept[k][0]) and np.array_equal(cpu.kept[k][1], cuda.kept[k][1]) for k in cpu.kept)
+            assert cpu.failure == cuda.failure
+            print(config, method, "identical", t.shape[0])
+    """, SIMULATOR)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert result.stdout.count("identical") == 9
+
+
+def test_a_case_that_blows_up_on_the_gpu_stops_where_it_does_on_the_cpu():
+    """A heavy top whose spin overflows (ω₀ = 1e200 rad/s: ω² is not finite) stops at its first sample
+    with the CPU's failure message, its last valid state kept; its neighbours are unaffected."""
+    result = _python("""
+        import numpy as np
+        from rotlab.ensemble.block import run_block
+        from rotlab.methods.base import Settings
+        from rotlab.methods.registry import get_method
+        from tests.test_ensemble import _scenes
+
+        for method, changes in (("rk4", {"step": 1e-4}), ("dop853", {})):
+            scenes = _scenes("lagrange.toml", 0.2, method, changes)
+            bad = scenes[2].state0.copy()
+            bad[4:7] = 1e200
+            scenes[2].__dict__["state0"] = bad  # (a cached property)
+            t = scenes[0].scenario.time.sample_times()
+            args = (scenes, get_method(method), Settings.of(scenes[0].scenario.solver), t, [2], 1, [None] * 5)
+            cpu, cuda = run_block(*args), run_block(*args, device="cuda")
+            assert cuda.failure == cpu.failure and cuda.failure[2] is not None and cuda.failure[1] is None, cuda.failure
+            assert np.array_equal(cuda.valid, cpu.valid) and cuda.valid[2] == 1 and cuda.valid[1] == t.shape[0]
+            assert np.array_equal(cuda.kept[2][1][-1], bad)
+            print(method, cuda.failure[2])
+    """, SIMULATOR)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "rk4" in result.stdout and "dop853" in result.stdout
+
+
+def _small_sweep(tmp_path: Path, extra: str = "") -> Path:
+    text = (CONFIGS / "sweep_flip.toml").read_text().replace("end = 20.0", "end = 1.0")
+    path = tmp_path / "small.toml"
+    path.write_text(text + extra)
+    return path
+
+
+def test_a_sweep_on_the_simulated_gpu_writes_the_cpu_sweeps_results(tmp_path):
+    """``rotlab sweep --device cuda``: results.csv byte for byte the CPU sweep's; the terminal says
+    where the cases ran."""
+    config = _small_sweep(tmp_path)
+    gpu = _rotlab(["sweep", str(config), "--device", "cuda", "-o", str(tmp_path / "gpu")], SIMULATOR, tmp_path)
+    cpu = _rotlab(["sweep", str(config), "-o", str(tmp_path / "cpu")], NO_GPU, tmp_path)
+    assert gpu.returncode == 0 and cpu.returncode == 0, gpu.stderr + cpu.stderr
+    assert (tmp_path / "gpu" / "results.csv").read_bytes() == (tmp_path / "cpu" / "results.csv").read_bytes()
+    assert "one thread per case on the GPU" in gpu.stdout
+
+
+def test_without_a_gpu_cuda_is_refused_in_one_line_and_nothing_is_written(tmp_path):
+    """No GPU: ``--device cuda`` and ``[sweep] device = "cuda"`` each exit 2 with one line naming
+    the option or key; no output directory is made (never a silent CPU run)."""
+    config = _small_sweep(tmp_path)
+    asked = _rotlab(["sweep", str(config), "--device", "cuda", "-o", str(tmp_path / "a")], NO_GPU, tmp_path)
+    in_file = config
+    in_file.write_text(in_file.read_text().replace("samples = 4", "samples = 4\ndevice = \"cuda\""))
+    from_file = _rotlab(["sweep", str(in_file), "-o", str(tmp_path / "b")], NO_GPU, tmp_path)
+    for result, where in ((asked, "--device"), (from_file, "sweep.device")):
+        assert result.returncode == 2, result.stdout + result.stderr
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"rotlab: error: {where}: no CUDA GPU found"), lines
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize("args, change, message", [
+    (["--device", "tpu"], None, "--device: must be cpu or cuda (got 'tpu')"),
+    (["--device", "cuda", "--timeout", "5"], None, "--device: cuda runs the cases together in one kernel: not with --timeout"),
+    (["--device", "cuda", "--dask", "tcp://127.0.0.1:1"], None, "--device: cuda runs on this machine's GPU: not with --dask"),
+    (["--device", "cuda"], ('method = "rk4"', 'method = "taylor"'), "method 'taylor' has no GPU kernel"),
+    (["--device", "cuda"], ("[sweep.parameters]", "[sweep.parameters]\n\"body.principal_moments[0]\" = [1.0e-4, 1.1e-4]"),
+     "only initial conditions may vary"),
+])
+def test_what_the_gpu_cannot_run_is_refused_in_one_line(tmp_path, args, change, message):
+    """With a (simulated) GPU: a device other than cpu/cuda, --timeout or --dask with cuda, a
+    method without a GPU kernel, a sweep that is not over initial states: exit 2, one line."""
+    config = _small_sweep(tmp_path)
+    if change is not None:
+        text = config.read_text()
+        assert change[0] in text
+        config.write_text(text.replace(change[0], change[1], 1))
+    result = _rotlab(["sweep", str(config), *args, "-o", str(tmp_path / "out")], SIMULATOR, tmp_path)
+    assert result.returncode == 2, result.stdout + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], lines
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_gpu_benchmark_runs_without_rotlabs_other_dependencies():
+    """benchmarks/bench_gpu.py in the simulator: every row's steps and last states equal the CPU's
+    run alone, and it imported neither pydantic, rerun nor typer (a bare GPU machine has none)."""
+    result = _python("""
+        import runpy, sys
+        sys.argv = ["bench_gpu.py", "--cases", "2", "--dop853-cases", "2", "--check", "2", "--repeats", "1"]
+        runpy.run_path("benchmarks/bench_gpu.py", run_name="__main__")
+        loaded = sorted({m.split(".")[0] for m in sys.modules} & {"pydantic", "rerun", "typer", "rotlab.config"})
+        print("loaded:", loaded)
+    """, SIMULATOR)
+    assert result.returncode == 0, result.stderr[-3000:]
+    rows = [line for line in result.stdout.splitlines() if line.startswith(("| rk4", "| dmv", "| dop853"))]
+    assert len(rows) == 3 and all(line.rstrip().endswith("| yes | yes |") for line in rows), result.stdout
+    assert "loaded: []" in result.stdout
