@@ -31,7 +31,6 @@ import time
 import numpy as np
 from numba import config, cuda
 
-from rotlab.core import targets
 from rotlab.core.dmv import dmv_advance, modified_coefficients
 from rotlab.core.dynamics import euler_coefficients
 from rotlab.core.model import Model
@@ -137,7 +136,7 @@ def difference(last: np.ndarray, acc: np.ndarray, cpu_last: np.ndarray, cpu_acc:
 
 
 def row(name: str, cases: int, steps: float, kernel_s: float, end_s: float, diff: float, same_steps: bool, identical: bool) -> None:
-    print(f"| {name} | {'on' if targets.CUDA_FMA else 'off'} | {gpu.THREADS} | {cases:,} | {steps:,.0f} | {kernel_s * 1e3:,.1f} | "
+    print(f"| {name} | {gpu.THREADS} | {cases:,} | {steps:,.0f} | {kernel_s * 1e3:,.1f} | "
           f"{end_s * 1e3:,.1f} | {cases * steps / kernel_s / 1e9:,.2f} | {cases / kernel_s / 1e6:,.3f} | {diff:.1e} | "
           f"{'yes' if same_steps else 'NO'} | {'yes' if identical else 'no'} |")
 
@@ -207,18 +206,16 @@ def main() -> None:
     parser.add_argument("--threads", type=int, nargs="+", default=[gpu.THREADS], help="threads per block to try")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--only", nargs="+", default=["rk4", "dmv", "dop853"])
-    parser.add_argument("--fma", action="store_true", help="compile with fused multiply-adds (targets.CUDA_FMA)")
     args = parser.parse_args()
-    targets.CUDA_FMA = args.fma
     if config.ENABLE_CUDASIM:
         print("numba's CUDA simulator: the figures below are not a GPU's")
     else:
         device = cuda.get_current_device()
         print(f"device: {device.name.decode() if isinstance(device.name, bytes) else device.name}, "
               f"compute capability {device.compute_capability}")
-    print("| method | FMA | threads/block | cases | steps/case | kernel ms | end to end ms | G body-steps/s (kernel) | M cases/s (kernel) "
+    print("| method | threads/block | cases | steps/case | kernel ms | end to end ms | G body-steps/s (kernel) | M cases/s (kernel) "
           "| max diff vs CPU | same steps | last states identical |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for threads in args.threads:
         gpu.THREADS = threads
         for kind in ("rk4", "dmv"):

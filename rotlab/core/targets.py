@@ -11,11 +11,6 @@ targets do differently is declared here, once:
   stage count);
 * ``next_toward(x, y)``: ``np.nextafter(x, y)`` (libdevice's ``nextafter`` on a GPU).
 
-rotlab's CUDA kernels are compiled without contracting a·b + c into one fused multiply-add
-(NVVM's ``-fma=0``; ``CUDA_FMA``), as numba compiles for the CPU: each operation rounds as it does
-there, so a case's numbers on the GPU are the CPU's (FMA's single rounding changed a Dzhanibekov
-flip's samples by 1e-8 after 4,000 steps, the separatrix amplifying 1e-16).
-
 Nothing here imports numba-cuda until ``enable_cuda`` is called.
 """
 
@@ -30,7 +25,6 @@ from numba.extending import overload as cpu_overload
 _FOR_CUDA: list[tuple[Callable, dict, Callable]] = []  # (function, overload options, implementation) to register for CUDA
 _GPU_ONLY: list[tuple[Callable, dict, Callable]] = []  # CUDA implementations of the functions declared below
 _cuda_enabled = False  # the overloads are registered for numba-cuda (never under the simulator)
-CUDA_FMA = False  # contract a·b + c into fused multiply-adds in rotlab's CUDA kernels (faster; not the CPU's rounding)
 
 
 def overload(func: Callable, **options) -> Callable[[Callable], Callable]:
@@ -70,24 +64,7 @@ def enable_cuda() -> None:
         return
     for func, options, impl in _GPU_ONLY + _FOR_CUDA:
         _register_cuda(func, options, impl)
-    _compile_rotlab_kernels_without_fma()
     _cuda_enabled = True
-
-
-def _compile_rotlab_kernels_without_fma() -> None:
-    """numba-cuda compiles a kernel with NVVM's default ``-fma=1``; rotlab's own kernels get
-    ``-fma=0`` unless ``CUDA_FMA`` (a wrapper of ``numba.cuda.dispatcher.compile_cuda``, which
-    every kernel's compilation calls with its NVVM options; other kernels are left as they are)."""
-    from numba.cuda import dispatcher
-
-    compile_cuda = dispatcher.compile_cuda
-
-    def compile_rotlab_exactly(pyfunc, *args, nvvm_options=None, **kwargs):
-        if getattr(pyfunc, "__module__", "").startswith("rotlab.") and not CUDA_FMA:
-            nvvm_options = {**(nvvm_options or {}), "fma": False}
-        return compile_cuda(pyfunc, *args, nvvm_options=nvvm_options, **kwargs)
-
-    dispatcher.compile_cuda = compile_rotlab_exactly
 
 
 def work_vector(n):

@@ -14,6 +14,11 @@ either device.
   whole sample grid lives in device memory, (n, 8) doubles, and the cases run in batches that fit
   ``MEMORY_FRACTION`` of the device's free memory.
 
+On a GPU a case's status, samples and step counts are the CPU's; its numbers agree to rounding,
+not bit for bit (the device's arithmetic; docs/benchmarks.md has the measured differences, which
+grow like any rounding difference where the motion is unstable).  numba's CUDA simulator runs
+these kernels on the CPU's compiled functions: there they are bit for bit (tests/test_gpu.py).
+
 Importing this module imports numba-cuda (not rotlab's configuration, recording or CLI):
 ``benchmarks/bench_gpu.py`` runs it on a machine with numpy and numba-cuda alone.
 """
@@ -85,13 +90,11 @@ def _simulated_arrays(kernel):
 
 
 def _jit(kernel):
-    """``cuda.jit`` whose None arguments are passed (see ``_NoneArguments``), linked without
-    link-time optimisation: nvJitLink's code generation fuses multiply-adds whatever NVVM was
-    told (``targets.CUDA_FMA``), and NVVM already optimises a kernel with every function it calls.
-    Under the simulator, its arrays unwrapped."""
+    """``cuda.jit`` whose None arguments are passed (see ``_NoneArguments``); under the
+    simulator, its arrays unwrapped."""
     if config.ENABLE_CUDASIM:
         return _simulated_arrays(cuda.jit(kernel))
-    return cuda.jit(extensions=[_NoneArguments()], lto=False)(kernel)
+    return cuda.jit(extensions=[_NoneArguments()])(kernel)
 
 
 _FIXED: dict[object, object] = {}  # a fixed-step method's kernel → its CUDA kernel
