@@ -6,12 +6,9 @@ a model by hand on a machine without rotlab's other dependencies)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
-
-if TYPE_CHECKING:
-    from rotlab.scene.user_torque import UserTorque
 
 class Expressions(NamedTuple):
     """Expression loads: one row each (columns ``rotlab.core.torques.EX_*``), their programs
@@ -52,6 +49,6 @@ class Model(NamedTuple):
     table_v: np.ndarray | None
     damping: float | None
     expressions: Expressions | None
-    user: UserTorque | None
+    user: object | None  # a Python torque (``rotlab.scene.user_torque.UserTorque``)
     rotors: np.ndarray | None = None  # (3,) the constant rotors' momentum h (principal frame): the gyrostatic torque h × ω
     drives: Drives | None = None  # driven rotors: their momenta are state columns 8, 9, … (``Drives``)

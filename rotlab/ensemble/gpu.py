@@ -31,7 +31,7 @@ from numba import config, cuda, types
 from rotlab.core import targets
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK
-from rotlab.ensemble.kernels import _keep, _keep_last, dop853_case, report_whole
+from rotlab.ensemble.kernels import _keep, dop853_case, report_fixed_step, report_whole
 from rotlab.ensemble.observe import ACC_COLUMNS, observe_rows
 
 THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
@@ -135,12 +135,8 @@ def _fixed_step_kernel(advance):
                 _keep(rows, times[i - 1:i + 1], 1, 2, i - 1, stride, kept[keep[b]], kept_t[keep[b]], count)
             store_row(rows, 0, rows[1])
             i += 1
-        if keep[b] >= 0:
-            _keep_last(rows[0], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
-        status[b], valid[b], steps[b] = code, i, taken
-        store_row(last, b, rows[0])
-        store_row(acc, b, folded)
-        kept_count[b] = count[0]
+        report_fixed_step(b, code, i, taken, rows[0], times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,
+                          kept_count)
 
     kernel = _FIXED[advance] = _jit(fixed_step)
     return kernel

@@ -154,12 +154,21 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
             store_row(rows, 0, rows[j - 1])
             if code != OK or j == 1:  # non-finite, or the step budget cannot reach the next sample
                 break
-        if keep[b] >= 0:
-            _keep_last(rows[0], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
-        status[b], valid[b], steps[b] = code, i, taken
-        store_row(last, b, rows[0])
-        store_row(acc, b, folded)
-        kept_count[b] = count[0]
+        report_fixed_step(b, code, i, taken, rows[0], times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,
+                          kept_count)
+
+
+@njit(cache=True)
+def report_fixed_step(b, code, i, taken, y, times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t, kept_count):
+    """Case b's report after a fixed-step run that made samples [0, i) with ``taken`` steps
+    (``code`` its status, ``y`` its last valid state, ``folded`` its observables, ``count`` the
+    samples kept so far): the last sample kept, and the outputs written."""
+    if keep[b] >= 0:
+        _keep_last(y, times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
+    status[b], valid[b], steps[b] = code, i, taken
+    store_row(last, b, y)
+    store_row(acc, b, folded)
+    kept_count[b] = count[0]
 
 
 @njit(cache=True)
