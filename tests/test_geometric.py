@@ -286,15 +286,16 @@ def test_dmv_rotation_solves_its_equations_to_rounding_against_a_50_digit_newton
 
 def test_dmv_step_without_a_solution_stops_there_and_keeps_the_valid_samples():
     """At h|ω| = 1.96 (under dmv's limit of 2) this body's DMV equations have no solution near the
-    identity at the sixth step: Newton does not converge, the state turns non-finite and the run
-    stops, saying between which samples; the 6 samples before stay, finite, with the energy and
-    |L| the DMV map conserves (to 1e-13: rounding over 5 steps)."""
+    identity at the fifth step: Newton does not converge, the state turns non-finite and the run
+    stops, saying between which samples; the 5 samples before stay, finite, with the energy and
+    |L| the DMV map conserves (to 1e-13: rounding over 4 steps).  (So close to the limit the step
+    at which the solution disappears depends on the last bits of m = I ω.)"""
     traj = rotlab.simulate(scenario(
         body={"principal_moments": [0.92, 0.2564, 2.5557], "allow_triangle_violation": True},
         initial={"omega": [3.323, 0.2258, -0.3526]},
         time={"end": 11.7, "samples": 21}, solver={"method": "dmv", "order": 2, "step": 0.585}), check=False)
-    assert traj.stats.failure.startswith("state became non-finite between t = 2.925 s and t = 3.51 s")
-    assert traj.t.shape == (6,) and np.all(np.isfinite(traj.quaternion)) and np.all(np.isfinite(traj.omega))
+    assert traj.stats.failure.startswith("state became non-finite between t = 2.34 s and t = 2.925 s")
+    assert traj.t.shape == (5,) and np.all(np.isfinite(traj.quaternion)) and np.all(np.isfinite(traj.omega))
     moments = np.array([0.92, 0.2564, 2.5557])
     energy = np.sum(moments * traj.omega**2, axis=1)
     momentum = np.sum((moments * traj.omega) ** 2, axis=1)
