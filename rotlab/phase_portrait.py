@@ -26,8 +26,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import quad
-from scipy.special import ellipk
 
 from rotlab.core import quaternion as quat
 from rotlab.core.torques import F_FORCE, F_POINT
@@ -105,6 +103,8 @@ class TopReduction:
 
     def nutation_period(self) -> float:
         """T (s) of θ's oscillation between the turning points: 4 A K(m) / √(2Ak (u₃ − u₁))."""
+        from scipy.special import ellipk  # (SciPy imported where a portrait needs it, not by every recording)
+
         u1, u2, u3 = self.cubic_roots()
         return 4.0 * self.a_moment * float(ellipk((u2 - u1) / (u3 - u1))) / math.sqrt(2.0 * self.a_moment * self.k * (u3 - u1))
 
@@ -121,6 +121,8 @@ class TopReduction:
         def integrand(s: float) -> float:
             u = u1 + (u2 - u1) * math.sin(s) ** 2
             return (self.p_psi - b * u) / (1.0 - u * u) * 2.0 / math.sqrt(2.0 * A * self.k * (u3 - u))
+
+        from scipy.integrate import quad
 
         integral, _ = quad(integrand, 0.0, 0.5 * math.pi, epsabs=0.0, epsrel=1e-13, limit=200)
         return 2.0 * integral / self.nutation_period()

@@ -61,3 +61,27 @@ def test_help_is_fast_and_imports_nothing_heavy():
     code = "import sys; import rotlab.cli; print(sorted(m for m in ('numpy', 'numba', 'rerun', 'scipy', 'pydantic') if m in sys.modules))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == "[]", done.stdout + done.stderr
+
+
+def test_a_run_imports_the_scipy_it_uses_only(tmp_path):
+    """A run of a loaded body without events draws no phase portrait and locates no event: it
+    imports neither SciPy's optimize (brentq, 24 MB and 0.4 s) nor integrate nor special; a
+    heavy top (its portrait) imports special and integrate, and a run whose events cross, optimize."""
+    code = """
+import sys
+from rotlab.cli import main
+sys.argv = ["rotlab", "run", sys.argv[1], "--duration", sys.argv[3], "-o", sys.argv[2]]
+try:
+    main()
+except SystemExit:
+    pass
+print(sorted(m for m in ("scipy.optimize", "scipy.integrate", "scipy.special") if m in sys.modules))
+"""
+    seen = {}
+    for config, seconds in (("general.toml", "0.2"), ("lagrange.toml", "0.2"), ("chaotic_top.toml", "10")):  # (~5 returns in 10 s)
+        done = subprocess.run([sys.executable, "-c", code, str(CONFIGS / config), str(tmp_path / "run.rrd"), seconds], capture_output=True,
+                              text=True, timeout=300)
+        seen[config] = done.stdout.strip().splitlines()[-1] if done.stdout.strip() else done.stderr
+    assert seen["general.toml"] == "[]", seen
+    assert "'scipy.special'" in seen["lagrange.toml"] and "'scipy.integrate'" in seen["lagrange.toml"], seen
+    assert "'scipy.optimize'" in seen["chaotic_top.toml"], seen  # (its events' crossings, located by brentq)

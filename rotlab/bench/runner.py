@@ -47,7 +47,7 @@ from rotlab.bench.problems import (
 
 THRESHOLD = 1e-10  # the error at which rotlab and scipy are compared
 LEAD_THRESHOLDS = (1e-10, 1e-13)  # where rotlab's best is compared with its own dop853
-DEPENDENCIES = ("numpy", "scipy", "scipy.special", "numba", "rerun", "pydantic", "typer")  # what `rotlab run` imports
+DEPENDENCIES = ("numpy", "scipy.linalg.cython_blas", "numba", "rerun", "pydantic", "typer")  # what `rotlab run` imports (SciPy: numba's linear algebra)
 
 
 @dataclass
