@@ -31,7 +31,7 @@ from numba import config, cuda, types
 from rotlab.core import targets
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK
-from rotlab.ensemble.kernels import _keep, dop853_case, report_fixed_step, report_whole
+from rotlab.ensemble.kernels import dop853_case, keep_samples, report_fixed_step, report_whole
 from rotlab.ensemble.observe import ACC_COLUMNS, observe_rows
 
 THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
@@ -123,7 +123,7 @@ def _fixed_step_kernel(advance):
         observe_rows(times, rows, 0, 1, True, case[b], shared, applies, forces, folded)
         count[0] = 0
         if keep[b] >= 0:
-            _keep(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
+            keep_samples(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
         code, i, taken = OK, 1, 0
         while i < n:
             code, j, done = advance(y, times[i - 1:i + 1], rows, 1, substeps[b], max_steps - taken, model, *extra)
@@ -132,7 +132,7 @@ def _fixed_step_kernel(advance):
                 break
             observe_rows(times[i - 1:i + 1], rows, 1, 2, False, case[b], shared, applies, forces, folded)
             if keep[b] >= 0:
-                _keep(rows, times[i - 1:i + 1], 1, 2, i - 1, stride, kept[keep[b]], kept_t[keep[b]], count)
+                keep_samples(rows, times[i - 1:i + 1], 1, 2, i - 1, stride, kept[keep[b]], kept_t[keep[b]], count)
             store_row(rows, 0, rows[1])
             i += 1
         report_fixed_step(b, code, i, taken, rows[0], times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,

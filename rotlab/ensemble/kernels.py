@@ -100,7 +100,7 @@ def _finite_rows(rows, start, stop):
 
 
 @njit(cache=True)
-def _keep(rows, times, start, stop, offset, stride, kept, kept_t, count):
+def keep_samples(rows, times, start, stop, offset, stride, kept, kept_t, count):
     """Copy the rows ``start … stop − 1`` whose sample index (row + ``offset``) is a multiple of
     ``stride`` into ``kept`` after its ``count[0]`` rows."""
     for i in range(start, stop):
@@ -112,7 +112,7 @@ def _keep(rows, times, start, stop, offset, stride, kept, kept_t, count):
 
 @njit(cache=True)
 def _keep_last(row, t, kept, kept_t, count):
-    """The last valid sample, if ``_keep`` did not take it."""
+    """The last valid sample, if ``keep_samples`` did not take it."""
     if count[0] == 0 or kept_t[count[0] - 1] != t:
         store_row(kept, count[0], row)
         kept_t[count[0]] = t
@@ -139,7 +139,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
         observe_rows(times, rows, 0, 1, True, case[b], shared, applies, forces, folded)
         count = np.zeros(1, dtype=np.int64)
         if keep[b] >= 0:
-            _keep(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
+            keep_samples(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
         code, i, taken = OK, 1, 0
         while i < n:
             lo, hi = i - 1, min(n, i + WINDOW)
@@ -149,7 +149,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
                 j = _finite_rows(rows, 1, j)
             observe_rows(times[lo:hi], rows, 1, j, False, case[b], shared, applies, forces, folded)
             if keep[b] >= 0:
-                _keep(rows, times[lo:hi], 1, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
+                keep_samples(rows, times[lo:hi], 1, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
             i = lo + j
             store_row(rows, 0, rows[j - 1])
             if code != OK or j == 1:  # non-finite, or the step budget cannot reach the next sample
@@ -214,7 +214,7 @@ def report_whole(b, code, i, rows, times, case, shared, applies, forces, status,
     store_row(acc, b, folded)
     count[0] = 0
     if keep[b] >= 0:
-        _keep(rows, times, 0, i, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
+        keep_samples(rows, times, 0, i, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
         _keep_last(rows[i - 1], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
     status[b], valid[b] = code, i
     store_row(last, b, rows[i - 1])
