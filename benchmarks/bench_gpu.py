@@ -198,13 +198,20 @@ def bench_dop853(cases: int, check: int, repeats: int) -> None:
         np.array_equal(last, out.last[:k]))
 
 
+def positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer (got {text})")
+    return value
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", type=int, nargs="+", default=[1 << 20])
-    parser.add_argument("--dop853-cases", type=int, nargs="+", default=[1 << 18])
-    parser.add_argument("--check", type=int, default=256, help="cases compared with the CPU run alone")
-    parser.add_argument("--threads", type=int, nargs="+", default=[gpu.THREADS], help="threads per block to try")
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--cases", type=positive, nargs="+", default=[1 << 20])
+    parser.add_argument("--dop853-cases", type=positive, nargs="+", default=[1 << 18])
+    parser.add_argument("--check", type=positive, default=256, help="cases compared with the CPU run alone")
+    parser.add_argument("--threads", type=positive, nargs="+", default=[gpu.THREADS], help="threads per block to try")
+    parser.add_argument("--repeats", type=positive, default=5)
     parser.add_argument("--only", nargs="+", default=["rk4", "dmv", "dop853"])
     args = parser.parse_args()
     if config.ENABLE_CUDASIM:

@@ -323,25 +323,6 @@ def _check_timeout(timeout: float | None, dask: str | None) -> None:
         raise InputError("--timeout", "not available with --dask (a running Dask task cannot be stopped): use the cluster's limits")
 
 
-def _gpu_plan(sweep_plan, option: str | None, dask: str | None, timeout: float | None):
-    """The sweep's ensemble plan on the GPU when ``--device cuda`` (or the file's ``[sweep] device``)
-    asks for it, None for the CPU; an ``InputError`` naming the option or key that cannot be honoured."""
-    from rotlab.errors import InputError
-    from rotlab.sweep.runner import cuda_plan
-
-    where = "--device" if option is not None else "sweep.device"
-    device = option if option is not None else sweep_plan.base.sweep.device
-    if device not in ("cpu", "cuda"):
-        raise InputError(where, f"must be cpu or cuda (got {device!r})")
-    if device == "cpu":
-        return None
-    if dask is not None:
-        raise InputError(where, "cuda runs on this machine's GPU: not with --dask")
-    if timeout is not None:
-        raise InputError(where, "cuda runs the cases together in one kernel: not with --timeout")
-    return cuda_plan(sweep_plan, where)
-
-
 def _case_numbers(text: str | None, count: int) -> list[int]:
     """``--compare``'s case numbers ("3,17"), each in [0, count)."""
     from rotlab.errors import InputError
@@ -375,7 +356,7 @@ def sweep(
     from contextlib import nullcontext
 
     from rotlab.errors import InputError, RunFailure
-    from rotlab.sweep.runner import compared_cases, plan, run_cases, start_workers
+    from rotlab.sweep.runner import compared_cases, device_plan, plan, run_cases, start_workers
 
     try:
         _check_timeout(timeout, dask)
@@ -397,15 +378,17 @@ def sweep(
         try:
             sweep_plan = plan(config)
             compared = compared_cases(len(sweep_plan.cases), _case_numbers(compare, len(sweep_plan.cases)))  # (before any file is made)
-            on_gpu = _gpu_plan(sweep_plan, device, dask, timeout)
+            where = "--device" if device is not None else "sweep.device"  # (--device over the file's [sweep] device)
+            device = device if device is not None else sweep_plan.base.sweep.device
+            on_gpu = device_plan(sweep_plan, device, where, dask, timeout)
             prepare_outdir(outdir)
             exit_after_stop()
             # the results table: results.partial.csv grows as cases finish; the final files, the recording and the terminal read it
             results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / PARTIAL_RESULTS,
                               observable_names(list(sweep_plan.base.events)))
             run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm,
-                            on_outcomes=results.add, compared=compared, ensemble=on_gpu)
-        except InputError as exc:
+                            on_outcomes=results.add, compared=compared, ensemble=on_gpu, device=device)
+        except (InputError, RunFailure) as exc:  # (a GPU's failure: the cases that finished are in results.partial.csv)
             _fail(exc)
         except OSError as exc:
             _fail(RunFailure(f"could not write the sweep's results in {outdir}: {exc.strerror or exc}"))

@@ -152,6 +152,61 @@ def test_what_the_gpu_cannot_run_is_refused_in_one_line(tmp_path, args, change, 
     assert not (tmp_path / "out").exists()
 
 
+def test_a_broken_cuda_set_up_and_a_method_without_a_gpu_kernel_are_refused_in_one_line(tmp_path):
+    """No simulator: a driver path that does not exist (numba.cuda's import raises) is "no usable
+    CUDA GPU"; a taylor sweep is refused for its method before the GPU is looked for."""
+    config = _small_sweep(tmp_path)
+    broken = _rotlab(["sweep", str(config), "--device", "cuda", "-o", str(tmp_path / "a")],
+                     {**NO_GPU, "NUMBA_CUDA_DRIVER": "/nonexistent/libcuda.so"}, tmp_path)
+    config.write_text(config.read_text().replace('method = "rk4"', 'method = "taylor"'))
+    taylor = _rotlab(["sweep", str(config), "--device", "cuda", "-o", str(tmp_path / "b")], NO_GPU, tmp_path)
+    for result, message in ((broken, "--device: no usable CUDA GPU"), (taylor, "method 'taylor' has no GPU kernel")):
+        lines = result.stderr.strip().splitlines()
+        assert result.returncode == 2 and len(lines) == 1 and message in lines[0], result.stderr[-2000:]
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_auto_choosing_a_method_without_a_gpu_kernel_says_so(tmp_path):
+    """``auto`` at rtol 1e-6 chooses taylor for the flip sweep: the refusal names auto's choice and
+    the methods to give instead."""
+    config = _small_sweep(tmp_path)
+    text = config.read_text()
+    config.write_text(text.replace('method = "rk4"', 'method = "auto"\nrtol = 1e-6').replace("step = ", "# step = "))
+    result = _rotlab(["sweep", str(config), "--device", "cuda", "-o", str(tmp_path / "out")], SIMULATOR, tmp_path)
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == 2 and len(lines) == 1 and "auto chose" in lines[0] and "give solver.method, one of rk4" in lines[0], lines
+
+
+def test_the_api_honours_the_files_device_and_a_gpu_failure_is_one_line(tmp_path):
+    """``run_cases(plan(file))`` with ``[sweep] device = "cuda"`` and no GPU raises the
+    ``InputError`` naming sweep.device (never a silent CPU run); in the simulator, a CUDA error in
+    the kernel call (here: out of memory, raised by hand) ends ``rotlab sweep`` with one line, exit 1."""
+    config = _small_sweep(tmp_path)
+    config.write_text(config.read_text().replace("samples = 4", 'samples = 4\ndevice = "cuda"', 1))
+    api = _python(f"""
+        from rotlab.errors import InputError
+        from rotlab.sweep.runner import plan, run_cases
+        try:
+            run_cases(plan({str(config)!r}))
+        except InputError as exc:
+            print("refused:", exc)
+    """, NO_GPU)
+    assert "refused: sweep.device: no CUDA GPU found" in api.stdout, api.stdout + api.stderr
+    failing = _python(f"""
+        import sys
+        from rotlab.ensemble import gpu
+        def out_of_memory(*args, **kwargs):
+            raise MemoryError("cuMemAlloc results in CUDA_ERROR_OUT_OF_MEMORY")
+        gpu.fixed_step_ensemble = out_of_memory
+        from rotlab.cli import main
+        sys.argv = ["rotlab", "sweep", {str(config)!r}, "-o", {str(tmp_path / "out")!r}]
+        main()
+    """, SIMULATOR)
+    lines = failing.stderr.strip().splitlines()
+    assert failing.returncode == 1 and len(lines) == 1, failing.stderr[-2000:]
+    assert lines[0] == "rotlab: error: the GPU run failed: MemoryError: cuMemAlloc results in CUDA_ERROR_OUT_OF_MEMORY", lines
+
+
 def test_the_gpu_benchmark_runs_without_rotlabs_other_dependencies():
     """benchmarks/bench_gpu.py in the simulator: every row's steps and last states equal the CPU's
     run alone, and it imported neither pydantic, rerun nor typer (a bare GPU machine has none)."""

@@ -10,6 +10,8 @@ so each case's states are those of the case run alone (tests/test_ensemble.py: b
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +20,7 @@ from numba import parallel_chunksize
 from rotlab.checks import period_of
 from rotlab.core.kernel_status import NONFINITE, OK
 from rotlab.ensemble import observe as ob
-from rotlab.errors import InputError
+from rotlab.errors import InputError, RunFailure
 from rotlab.methods.base import Settings
 from rotlab.methods.stepping import CHUNK_STEPS, budget_message, nonfinite_after, step_floor_message
 from rotlab.scene.scene import Scene
@@ -139,6 +141,8 @@ def gpu_unavailable() -> str | None:
         from rotlab.ensemble import gpu
     except ImportError as exc:
         return f"numba's CUDA target is missing ({exc}): `pip install 'rotlab[cuda]'`"
+    except Exception as exc:  # numba.cuda's set-up failing on this machine (a bad NUMBA_CUDA_DRIVER, …)
+        return f"no usable CUDA GPU ({type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else exc!r})"
     return gpu.unavailable()
 
 
@@ -148,6 +152,23 @@ def unsupported_on_gpu(method: object) -> str | None:
     if name in GPU_METHODS:
         return None
     return f"method {name!r} has no GPU kernel: choose one of {', '.join(GPU_METHODS)} (solver.method), or run without --device cuda"
+
+
+@contextmanager
+def _gpu_errors(device: str) -> Iterator[None]:
+    """On the GPU, an error of CUDA's (out of memory, a failed launch or compilation) as a one-line
+    ``RunFailure`` (``gpu.failure``); an ``InputError`` as it is."""
+    if device != "cuda":
+        yield
+        return
+    try:
+        yield
+    except (InputError, RunFailure, KeyboardInterrupt):
+        raise
+    except Exception as exc:
+        from rotlab.ensemble.gpu import failure
+
+        raise RunFailure(failure(exc)) from exc
 
 
 def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, keep: list[int], stride: int,
@@ -175,7 +196,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     if method.adaptive:
         counters = np.zeros((b, 3), dtype=np.int64)
         try:
-            with parallel_chunksize(1):  # (cases of unequal cost: each thread takes the next case)
+            with parallel_chunksize(1), _gpu_errors(device):  # (cases of unequal cost: each thread takes the next case)
                 run = ADAPTIVE_KERNELS[method.name](scene, method, settings, t, y0, counters, case, shared, applies, forces, status, valid,
                                                    last, acc, where, stride, kept, kept_t, kept_count, device=device)
         except InputError as exc:
@@ -200,8 +221,9 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
         if device == "cuda":
             from rotlab.ensemble import gpu
 
-            gpu.fixed_step_ensemble(method.kernel, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
-                                    *outputs)
+            with _gpu_errors(device):
+                gpu.fixed_step_ensemble(method.kernel, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
+                                        *outputs)
         else:
             with parallel_chunksize(1):
                 kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, scene.model,

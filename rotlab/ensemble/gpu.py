@@ -14,9 +14,10 @@ either device.
   whole sample grid lives in device memory, (n, 8) doubles, and the cases run in batches that fit
   ``MEMORY_FRACTION`` of the device's free memory.
 
-On a GPU a case's status, samples and step counts are the CPU's; its numbers agree to rounding,
-not bit for bit (the device's arithmetic; docs/benchmarks.md has the measured differences, which
-grow like any rounding difference where the motion is unstable).  numba's CUDA simulator runs
+On a GPU a case's numbers agree with the CPU's to rounding, not bit for bit (the device's
+arithmetic; docs/benchmarks.md has the measured differences, which grow like any rounding
+difference where the motion is unstable), so what rounding decides may differ too: an adaptive
+step's acceptance (its step counts), a step at the edge of what a method can solve (its status).  numba's CUDA simulator runs
 these kernels on the CPU's compiled functions: there they are bit for bit (tests/test_gpu.py).
 
 Importing this module imports numba-cuda (not rotlab's configuration, recording or CLI):
@@ -53,7 +54,17 @@ def unavailable() -> str | None:
         targets.enable_cuda()
     except ImportError as exc:  # numba's own, older CUDA target: no ``numba.cuda.extending.overload``
         return f"numba-cuda is missing ({exc}): `pip install 'rotlab[cuda]'`"
+    if not config.ENABLE_CUDASIM:
+        from numba.cuda.cudadrv import nvvm
+
+        if not nvvm.is_available():  # the compiler the kernels need (a driver alone runs no new kernel)
+            return "a CUDA GPU but no NVVM, CUDA's compiler: `pip install 'rotlab[cuda]'` (numba-cuda[cu12] brings it)"
     return None
+
+
+def failure(exc: Exception) -> str:
+    """A CUDA error of a run (out of memory, a failed launch or compilation) in one line."""
+    return f"the GPU run failed: {type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else 'no message'}"
 
 
 class _NoneArguments:

@@ -227,7 +227,7 @@ def ensemble_plan_or_why(p: SweepPlan, device: str = "cpu") -> EnsemblePlan | st
     (``rotlab.ensemble.block.unsupported_scene``)."""
     if not initial_only(p.base.sweep.parameters):
         return "only initial conditions may vary (the cases share one body, loads and method)"
-    from rotlab.ensemble.block import has_ensemble_kernel, unsupported_on_gpu, unsupported_scene
+    from rotlab.ensemble.block import GPU_METHODS, has_ensemble_kernel, unsupported_on_gpu, unsupported_scene
     from rotlab.methods.base import Settings
     from rotlab.methods.registry import get_method
     from rotlab.scene.scene import build_scene
@@ -242,27 +242,38 @@ def ensemble_plan_or_why(p: SweepPlan, device: str = "cpu") -> EnsemblePlan | st
         if choice is None or choice.own:
             return "auto chooses a method for each case: give solver.method"
         method, settings, why = get_method(choice.method), choice.settings, f"one method for all cases: {choice.label}: {choice.why}"
+        if device == "cuda" and unsupported_on_gpu(method) is not None:
+            return f"auto chose {choice.label}, which has no GPU kernel: give solver.method, one of {', '.join(GPU_METHODS)}"
     else:
         method, settings, why = get_method(solver.method), Settings.of(solver), "as the file asks"
-    refusal = (None if has_ensemble_kernel(method) else f"method {method.name!r} has no ensemble kernel") or unsupported_scene(scene) \
-        or method.unsupported(scene) or (unsupported_on_gpu(method) if device == "cuda" else None)
+    refusal = (unsupported_on_gpu(method) if device == "cuda" else None) \
+        or (None if has_ensemble_kernel(method) else f"method {method.name!r} has no ensemble kernel") or unsupported_scene(scene) \
+        or method.unsupported(scene)
     if refusal is not None:
         return refusal
     return EnsemblePlan(method.name, settings, why, device)
 
 
-def cuda_plan(p: SweepPlan, where: str) -> EnsemblePlan:
-    """The plan of a sweep asked to run on an NVIDIA GPU (``where``: the option or key that asked),
-    or an ``InputError`` naming ``where`` and why it cannot: no GPU (never a silent CPU run), or
-    cases the ensemble kernels do not take."""
+def device_plan(p: SweepPlan, device: str, where: str, dask_address: str | None = None, timeout: float | None = None) -> EnsemblePlan | None:
+    """None for ``device`` "cpu"; for "cuda", the sweep's ensemble plan on the GPU; else an
+    ``InputError`` naming ``where`` (the option or key that asked) and why: not cpu or cuda, with
+    --dask or --timeout, cases the ensemble kernels do not take, no usable GPU (never a silent CPU run)."""
     from rotlab.ensemble.block import gpu_unavailable
 
-    why = gpu_unavailable()
-    if why is not None:
-        raise InputError(where, why)
+    if device not in ("cpu", "cuda"):
+        raise InputError(where, f"must be cpu or cuda (got {device!r})")
+    if device == "cpu":
+        return None
+    if dask_address is not None:
+        raise InputError(where, "cuda runs on this machine's GPU: not with --dask")
+    if timeout is not None:
+        raise InputError(where, "cuda runs the cases together in one kernel: not with --timeout")
     plan = ensemble_plan_or_why(p, "cuda")
     if isinstance(plan, str):
         raise InputError(where, f"the GPU runs the ensemble kernels only, and this sweep cannot use them: {plan}")
+    why = gpu_unavailable()
+    if why is not None:
+        raise InputError(where, why)
     return plan
 
 
@@ -362,7 +373,7 @@ def chunk_size(cases: int, workers: int) -> int:
 
 def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, timeout: float | None = None,
               retries: int = 0, warm: WarmWorkers | None = None, on_outcomes: Callable[[list[CaseOutcome]], None] | None = None,
-              compared: frozenset[int] | None = None, ensemble: EnsemblePlan | None = None) -> SweepRun:
+              compared: frozenset[int] | None = None, ensemble: EnsemblePlan | None = None, device: str | None = None) -> SweepRun:
     """Every case: the ensemble kernels when ``ensemble_plan`` allows (on ``jobs`` threads), else local worker processes
     or the Dask cluster at ``dask_address``.  Local workers take the cases in chunks
     (``chunk_size``), validate and run them and report them together; a chunk whose worker died is
@@ -373,7 +384,11 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     ``on_outcomes``: given the outcomes as cases finish (else they are returned, in case order);
     ``compared``: the cases that keep their series (default: ``compared_cases`` when the outcomes
     go to ``on_outcomes``, else every case); ``ensemble``: the ensemble plan decided already
-    (``cuda_plan``), else ``ensemble_plan``'s."""
+    (``device_plan``), else ``ensemble_plan``'s; ``device``: "cpu" or "cuda" (default: the file's
+    ``[sweep] device``; "cuda" runs as ``device_plan`` says, or raises its ``InputError``)."""
+    if ensemble is None:
+        where = "sweep.device" if device is None else "device"
+        ensemble = device_plan(p, p.base.sweep.device if device is None else device, where, dask_address, timeout)
     if compared is None and on_outcomes is not None:
         compared = compared_cases(len(p.cases))
     collected: list[CaseOutcome] = []
