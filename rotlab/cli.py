@@ -118,8 +118,8 @@ def _serve_until_interrupted(url: str | None) -> None:
     """Keep the web viewer's server up (it holds the recording) until Ctrl-C."""
     import time
 
-    typer.echo(f"rotlab: serving the web viewer at {url} — Ctrl-C to stop (the file is finished then)", err=True)
-    try:
+    try:  # (the line inside: a Ctrl-C that follows it at once is the one it asks for, not an interrupted run)
+        typer.echo(f"rotlab: serving the web viewer at {url} — Ctrl-C to stop (the file is finished then)", err=True)
         while True:
             time.sleep(0.5)
     except KeyboardInterrupt:
