@@ -35,6 +35,16 @@ class RunFailure(Exception):
         return (type(self), (str(self),))
 
 
+def first_line(exc: BaseException, typed: bool = False) -> str:
+    """The first line of ``exc``'s message (libraries raise long help texts), or its type's name
+    when it has none; ``typed``: "Type: line"."""
+    text = str(exc).strip()
+    line = text.splitlines()[0] if text else ""
+    if typed:
+        return f"{type(exc).__name__}: {line}" if line else type(exc).__name__
+    return line or type(exc).__name__
+
+
 class Interrupted(RunFailure):
     """The user stopped the run (Ctrl-C); what was computed is kept."""
 

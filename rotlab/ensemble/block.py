@@ -20,7 +20,7 @@ from numba import parallel_chunksize
 from rotlab.checks import period_of
 from rotlab.core.kernel_status import NONFINITE, OK
 from rotlab.ensemble import observe as ob
-from rotlab.errors import InputError, RunFailure
+from rotlab.errors import InputError, RunFailure, first_line
 from rotlab.methods.base import Settings
 from rotlab.methods.stepping import CHUNK_STEPS, budget_message, nonfinite_after, step_floor_message
 from rotlab.scene.scene import Scene
@@ -142,7 +142,7 @@ def gpu_unavailable() -> str | None:
     except ImportError as exc:
         return f"numba's CUDA target is missing ({exc}): `pip install 'rotlab[cuda]'`"
     except Exception as exc:  # numba.cuda's set-up failing on this machine (a bad NUMBA_CUDA_DRIVER, …)
-        return f"no usable CUDA GPU ({type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else exc!r})"
+        return f"no usable CUDA GPU ({first_line(exc, typed=True)})"
     return gpu.unavailable()
 
 

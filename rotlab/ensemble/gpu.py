@@ -32,6 +32,7 @@ from numba import config, cuda, types
 from rotlab.core import targets
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK
+from rotlab.errors import first_line
 from rotlab.ensemble.kernels import dop853_case, keep_samples, report_fixed_step, report_whole
 from rotlab.ensemble.observe import ACC_COLUMNS, observe_rows
 
@@ -64,7 +65,7 @@ def unavailable() -> str | None:
 
 def failure(exc: Exception) -> str:
     """A CUDA error of a run (out of memory, a failed launch or compilation) in one line."""
-    return f"the GPU run failed: {type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else 'no message'}"
+    return f"the GPU run failed: {first_line(exc, typed=True)}"
 
 
 class _NoneArguments:

@@ -41,7 +41,7 @@ from pathlib import Path
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rotlab.errors import RunFailure
+from rotlab.errors import RunFailure, first_line
 
 FOOTER_MAGIC = b"RRF2FOOT"
 STREAM_FOOTER_BYTES = 32
@@ -344,8 +344,7 @@ class RecordingSink:
         try:
             rr.spawn(port=self.live.grpc_port, connect=False, hide_welcome_screen=True, executable_path=executable)
         except Exception as exc:  # noqa: BLE001 — Rerun raises RuntimeError/OSError with a long help text
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise RunFailure(f"--spawn: could not start the Rerun viewer ({first})") from None
+            raise RunFailure(f"--spawn: could not start the Rerun viewer ({first_line(exc)})") from None
 
     def open(self, blueprint: rrb.Blueprint) -> None:
         """Attach every sink (file pipe and live viewers) with the default ``blueprint``."""

@@ -418,8 +418,8 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         if stopped is not None:
             note = f"not finished (the sweep received {signal.Signals(stopped).name})"
             deliver([CaseOutcome(case.index, case.values, "error", message=note) for case in p.cases[done:]])
-        where = "one thread per case on the GPU" if plan.device == "cuda" else f"{used} thread{'s' if used > 1 else ''} over cases"
-        how = (f"ensemble kernels ({plan.method_name}, {where}, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
+        spread = "one thread per case on the GPU" if plan.device == "cuda" else f"{used} thread{'s' if used > 1 else ''} over cases"
+        how = (f"ensemble kernels ({plan.method_name}, {spread}, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
                f"{time.perf_counter() - started:.3g} s for all cases; {plan.why})")
         return SweepRun(sorted(collected, key=lambda o: o.index), how, stopped)
     if dask_address is not None:
