@@ -2,6 +2,7 @@
 case's result against the same case run alone on the CPU.
 
     python benchmarks/bench_gpu.py [--cases 1048576] [--check 256] [--threads 32 64 128]
+    python benchmarks/bench_gpu.py --fma   # kernels compiled with fused multiply-adds (faster; not the CPU's rounding)
     NUMBA_ENABLE_CUDASIM=1 python benchmarks/bench_gpu.py --cases 8 --check 8   # on a machine without a GPU
 
 Imports numpy, numba (with numba-cuda) and rotlab's kernel modules only — no configuration,
@@ -213,13 +214,15 @@ def main() -> None:
     parser.add_argument("--threads", type=positive, nargs="+", default=[gpu.THREADS], help="threads per block to try")
     parser.add_argument("--repeats", type=positive, default=5)
     parser.add_argument("--only", nargs="+", default=["rk4", "dmv", "dop853"])
+    parser.add_argument("--fma", action="store_true", help="compile with fused multiply-adds (NVVM -fma=1; not the CPU's rounding)")
     args = parser.parse_args()
+    gpu.FUSED_MULTIPLY_ADD = args.fma
     if config.ENABLE_CUDASIM:
         print("numba's CUDA simulator: the figures below are not a GPU's")
     else:
         device = cuda.get_current_device()
         print(f"device: {device.name.decode() if isinstance(device.name, bytes) else device.name}, "
-              f"compute capability {device.compute_capability}")
+              f"compute capability {device.compute_capability}, fused multiply-adds {'on' if args.fma else 'off'}")
     print("| method | threads/block | cases | steps/case | kernel ms | end to end ms | G body-steps/s (kernel) | M cases/s (kernel) "
           "| max diff vs CPU | same steps | last states identical |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")

@@ -14,17 +14,20 @@ either device.
   whole sample grid lives in device memory, (n, 8) doubles, and the cases run in batches that fit
   ``MEMORY_FRACTION`` of the device's free memory.
 
-On a GPU a case's numbers agree with the CPU's to rounding, not bit for bit (the device's
-arithmetic; docs/benchmarks.md has the measured differences, which grow like any rounding
-difference where the motion is unstable), so what rounding decides may differ too: an adaptive
-step's acceptance (its step counts), a step at the edge of what a method can solve (its status).  numba's CUDA simulator runs
-these kernels on the CPU's compiled functions: there they are bit for bit (tests/test_gpu.py).
+The kernels are compiled without fused multiply–adds (NVVM's ``-fma=0``; its default contracts
+a·b + c into one rounding, where the CPU's kernels round the product and the sum apart), so the
+device does the CPU's IEEE operations in the CPU's order.  What may still differ is a library
+function's last bit (libdevice's ``pow``, ``sin``, … against the C library's): docs/benchmarks.md
+has the measured agreement.  numba's CUDA simulator runs these kernels on the CPU's compiled
+functions: there they are bit for bit (tests/test_gpu.py).
 
 Importing this module imports numba-cuda (not rotlab's configuration, recording or CLI):
 ``benchmarks/bench_gpu.py`` runs it on a machine with numpy and numba-cuda alone.
 """
 
 from __future__ import annotations
+
+from contextlib import contextmanager
 
 import numpy as np
 from numba import config, cuda, types
@@ -38,6 +41,7 @@ from rotlab.ensemble.observe import ACC_COLUMNS, observe_rows
 
 THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
 MEMORY_FRACTION = 0.5  # of the device's free memory, for dop853's sample grids
+FUSED_MULTIPLY_ADD = False  # NVVM's -fma: True contracts a·b + c (faster, no longer the CPU's rounding)
 SIMULATED_MEMORY = 1 << 26  # bytes, the simulator's device memory (batches of a few cases: tests cover the batches)
 
 
@@ -101,12 +105,35 @@ def _simulated_arrays(kernel):
     return kernel
 
 
+@contextmanager
+def _compiling():
+    """Kernels compiled (on their first launch) in this block get ``-fma=<FUSED_MULTIPLY_ADD>``:
+    numba-cuda passes NVVM no such option unless ``fastmath`` (which also flushes subnormals and
+    approximates division and square roots), and NVVM's default is to fuse."""
+    if config.ENABLE_CUDASIM:
+        yield
+        return
+    from numba.cuda.cudadrv import nvvm
+
+    compile_ir = nvvm.compile_ir
+
+    def compile_with_fma_option(llvmir, **options):
+        return compile_ir(llvmir, **{"fma": FUSED_MULTIPLY_ADD, **options})
+
+    nvvm.compile_ir = compile_with_fma_option
+    try:
+        yield
+    finally:
+        nvvm.compile_ir = compile_ir
+
+
 def _jit(kernel):
-    """``cuda.jit`` whose None arguments are passed (see ``_NoneArguments``); under the
-    simulator, its arrays unwrapped."""
+    """``cuda.jit`` whose None arguments are passed (see ``_NoneArguments``), compiled to PTX by
+    NVVM (not link-time optimised: nvJitLink would generate the code itself, fusing
+    multiply–adds whatever NVVM was told); under the simulator, its arrays unwrapped."""
     if config.ENABLE_CUDASIM:
         return _simulated_arrays(cuda.jit(kernel))
-    return cuda.jit(extensions=[_NoneArguments()])(kernel)
+    return cuda.jit(kernel, extensions=[_NoneArguments()], lto=False)  # (the decorator form drops lto: numba-cuda 0.30)
 
 
 _FIXED: dict[object, object] = {}  # a fixed-step method's kernel → its CUDA kernel
@@ -221,10 +248,11 @@ def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, c
     outputs = {"status": status, "valid": valid, "steps": steps, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
                "kept_count": kept_count}
     out = _to_device(outputs)
-    _fixed_step_kernel(advance)[blocks(y0.shape[0]), THREADS](
-        inputs["y0"], inputs["times"], inputs["substeps"], max_steps, _tuple_to_device(model), _tuple_to_device(extra), inputs["case"],
-        inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["steps"], out["last"], out["acc"],
-        inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
+    with _compiling():
+        _fixed_step_kernel(advance)[blocks(y0.shape[0]), THREADS](
+            inputs["y0"], inputs["times"], inputs["substeps"], max_steps, _tuple_to_device(model), _tuple_to_device(extra),
+            inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["steps"],
+            out["last"], out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     _copy_back(out, outputs)
 
 
@@ -247,10 +275,11 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, ca
     b, n = y0.shape[0], times.shape[0]
     batch = cases_per_batch(b, n)
     grid = cuda.device_array((batch, n, STATE_SIZE))
-    for first in range(0, b, batch):
-        _dop853_kernel[blocks(min(batch, b - first)), THREADS](
-            first, inputs["y0"], inputs["times"], grid, rtol, atol, max_steps, chunk, device_model, out["counters"], inputs["case"],
-            inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["last"], out["acc"], inputs["keep"],
-            stride, out["kept"], out["kept_t"], out["kept_count"])
+    with _compiling():
+        for first in range(0, b, batch):
+            _dop853_kernel[blocks(min(batch, b - first)), THREADS](
+                first, inputs["y0"], inputs["times"], grid, rtol, atol, max_steps, chunk, device_model, out["counters"],
+                inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["last"],
+                out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     del grid
     _copy_back(out, outputs)
