@@ -3,7 +3,8 @@
 
 Step: 12 stages, y₁ = y₀ + h Σ b_j k_j, FSAL k₁₃ = f(t + h, y₁).  Error (scaled by
 sc_i = atol + rtol · max(|y₀ᵢ|, |y₁ᵢ|)):  err = |h| ‖e₅‖² / √((‖e₅‖² + 0.01 ‖e₃‖²) · n),
-e₅ = Σ E5_j k_j, e₃ = Σ E3_j k_j.  Step factor 0.9 · err^(−1/8) clipped to [0.2, 10].
+e₅ = Σ E5_j k_j, e₃ = Σ E3_j k_j.  Step factor 0.9 · err^(−1/8) clipped to [0.2, 10] (the power
+as three square roots, correctly rounded on every target).
 Dense output: 3 more stages and the degree-7 interpolant, evaluated at every sample in
 (t, t + h] — so the output times never shorten a step.
 The Butcher tableau is read from SciPy's published DOP853 coefficient table.
@@ -29,7 +30,13 @@ _E5 = np.ascontiguousarray(_coef.E5, dtype=np.float64)  # (13,)
 _D = np.ascontiguousarray(_coef.D, dtype=np.float64)  # (4, 16)
 _STAGES = 12
 _SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
-_EXPONENT = -1.0 / 8.0
+
+
+@njit(cache=True, inline="always")
+def _eighth_root(x):
+    """x^(1/8) as three square roots: correctly rounded operations, so a GPU computes the CPU's
+    bits (a library ``pow`` differs between targets in its last bit)."""
+    return math.sqrt(math.sqrt(math.sqrt(x)))
 
 
 @njit(cache=True)
@@ -60,7 +67,7 @@ def initial_step(t, y, f0, t_end, rtol, atol, model):
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+        h1 = _eighth_root(0.01 / max(d1, d2))
     return min(100.0 * h0, h1, t_end - t)
 
 
@@ -113,9 +120,20 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
         # a step ending on a breakpoint sees the loads' left limit: its stages stop just before it
         at_break = t_new == limit and limit != t_end
         t_last = next_toward(t_new, -np.inf) if at_break else t_new
-        for s in range(1, _STAGES + 1):  # the last (FSAL) stage is f(t_last, y_new): A[12, :12] = B
-            _stage_state(s, h, y, K, tmp, n)
-            rhs_llvm_inlined(t_last if s == _STAGES else min(t + _C[s] * h, t_last), tmp, K[s], model)
+        # Stages 1–12, unrolled: with constant indices a GPU keeps K in registers (a loop indexes it
+        # at run time, which puts it in local memory: 1.4× slower on an H100, 1.2× on a CPU)
+        _stage(1, t, h, t_last, y, K, tmp, n, model)
+        _stage(2, t, h, t_last, y, K, tmp, n, model)
+        _stage(3, t, h, t_last, y, K, tmp, n, model)
+        _stage(4, t, h, t_last, y, K, tmp, n, model)
+        _stage(5, t, h, t_last, y, K, tmp, n, model)
+        _stage(6, t, h, t_last, y, K, tmp, n, model)
+        _stage(7, t, h, t_last, y, K, tmp, n, model)
+        _stage(8, t, h, t_last, y, K, tmp, n, model)
+        _stage(9, t, h, t_last, y, K, tmp, n, model)
+        _stage(10, t, h, t_last, y, K, tmp, n, model)
+        _stage(11, t, h, t_last, y, K, tmp, n, model)
+        _stage(12, t, h, t_last, y, K, tmp, n, model)  # FSAL: f(t_last, y_new), A[12, :12] = B
         for m in range(n):
             y_new[m] = tmp[m]
         counters[2] += _STAGES
@@ -164,16 +182,23 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
             if err == 0.0:
                 factor = _MAX_FACTOR
             else:
-                factor = min(_MAX_FACTOR, _SAFETY * err**_EXPONENT)
+                factor = min(_MAX_FACTOR, _SAFETY / _eighth_root(err))
             if rejected:
                 factor = min(1.0, factor)
             h *= factor
             rejected = False
         else:
             counters[1] += 1
-            h *= max(_MIN_FACTOR, _SAFETY * err**_EXPONENT)
+            h *= max(_MIN_FACTOR, _SAFETY / _eighth_root(err))
             rejected = True
     return OK, i, t, h
+
+
+@njit(cache=True, forceinline=True)
+def _stage(s, t, h, t_last, y, K, tmp, n, model):
+    """K[s] ← f(t + c_s h, y + h Σ_{j<s} a_sj K[j]) (time capped at ``t_last``; the last stage's is ``t_last``)."""
+    _stage_state(s, h, y, K, tmp, n)
+    rhs_llvm_inlined(t_last if s == _STAGES else min(t + _C[s] * h, t_last), tmp, K[s], model)
 
 
 @njit(cache=True, forceinline=True)
