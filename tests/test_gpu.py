@@ -221,3 +221,31 @@ def test_the_gpu_benchmark_runs_without_rotlabs_other_dependencies():
     rows = [line for line in result.stdout.splitlines() if line.startswith(("| rk4", "| dmv", "| dop853"))]
     assert len(rows) == 3 and all(line.rstrip().endswith("| yes | yes |") for line in rows), result.stdout
     assert "loaded: []" in result.stdout
+
+
+def test_the_kernels_are_compiled_for_the_cpus_rounding(monkeypatch):
+    """A GPU computes the CPU's bits (measured on an H100: rk4, dmv, rkmk4 0 ulp over 1,000 steps,
+    docs/benchmarks.md) only if NVVM is told ``-fma=0`` (its default fuses a·b + c into one
+    rounding) and generates the code itself: with link-time optimisation, nvJitLink would (and
+    ``cuda.jit``'s decorator form silently drops ``lto=False``, so ``_jit`` must not use it)."""
+    from numba import config
+    from numba.cuda.cudadrv import nvvm
+
+    from rotlab.ensemble import gpu
+
+    monkeypatch.setattr(config, "ENABLE_CUDASIM", False)
+    seen: list[dict] = []
+    monkeypatch.setattr(nvvm, "compile_ir", lambda llvmir, **options: seen.append(options) or b"")
+    with gpu._compiling():
+        nvvm.compile_ir("ir", opt=3, arch="compute_90")
+    nvvm.compile_ir("ir", opt=3)  # outside: untouched
+    assert seen == [{"fma": False, "opt": 3, "arch": "compute_90"}, {"opt": 3}]
+    monkeypatch.setattr(gpu, "FUSED_MULTIPLY_ADD", True)
+    with gpu._compiling():
+        nvvm.compile_ir("ir", fastmath=False)
+    assert seen[-1] == {"fma": True, "fastmath": False}
+
+    def kernel(a):
+        pass
+
+    assert gpu._jit(kernel).targetoptions["lto"] is False
