@@ -19,7 +19,9 @@ from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
 from rotlab.core.dynamics import all_finite, count_at_or_below, next_piece, rhs_called, rhs_llvm_inlined, state_size, store_row
-from rotlab.core.targets import next_toward, work_matrix, work_vector
+from numba.extending import overload
+
+from rotlab.core.targets import gpu_overload, next_toward, on_gpu, work_matrix, work_vector
 
 OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
@@ -120,20 +122,12 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
         # a step ending on a breakpoint sees the loads' left limit: its stages stop just before it
         at_break = t_new == limit and limit != t_end
         t_last = next_toward(t_new, -np.inf) if at_break else t_new
-        # Stages 1–12, unrolled: with constant indices a GPU keeps K in registers (a loop indexes it
-        # at run time, which puts it in local memory: 1.4× slower on an H100, 1.2× on a CPU)
-        _stage(1, t, h, t_last, y, K, tmp, n, model)
-        _stage(2, t, h, t_last, y, K, tmp, n, model)
-        _stage(3, t, h, t_last, y, K, tmp, n, model)
-        _stage(4, t, h, t_last, y, K, tmp, n, model)
-        _stage(5, t, h, t_last, y, K, tmp, n, model)
-        _stage(6, t, h, t_last, y, K, tmp, n, model)
-        _stage(7, t, h, t_last, y, K, tmp, n, model)
-        _stage(8, t, h, t_last, y, K, tmp, n, model)
-        _stage(9, t, h, t_last, y, K, tmp, n, model)
-        _stage(10, t, h, t_last, y, K, tmp, n, model)
-        _stage(11, t, h, t_last, y, K, tmp, n, model)
-        _stage(12, t, h, t_last, y, K, tmp, n, model)  # FSAL: f(t_last, y_new), A[12, :12] = B
+        if on_gpu():
+            _unrolled_stages(t, h, t_last, y, K, tmp, n, model)
+        else:
+            for s in range(1, _STAGES + 1):  # the last (FSAL) stage is f(t_last, y_new): A[12, :12] = B
+                _stage_state(s, h, y, K, tmp, n)
+                rhs_llvm_inlined(t_last if s == _STAGES else min(t + _C[s] * h, t_last), tmp, K[s], model)
         for m in range(n):
             y_new[m] = tmp[m]
         counters[2] += _STAGES
@@ -192,6 +186,36 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
             h *= max(_MIN_FACTOR, _SAFETY / _eighth_root(err))
             rejected = True
     return OK, i, t, h
+
+
+def _unrolled_stages(t, h, t_last, y, K, tmp, n, model):
+    """``_stage`` 1, 2, …, 12 on a GPU, unrolled: constant indices keep K in its registers (a loop
+    puts K in local memory: 1.2–1.4× slower on an H100).  A CPU runs the loop (as fast, and half
+    the compile time): ``dop853_advance`` calls this where ``on_gpu()``."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_unrolled_stages, inline="always")
+def _unrolled_stages_cpu(t, h, t_last, y, K, tmp, n, model):
+    return lambda t, h, t_last, y, K, tmp, n, model: None  # never reached: ``on_gpu()`` is False on a CPU
+
+
+@gpu_overload(_unrolled_stages, inline="always")
+def _unrolled_stages_gpu(t, h, t_last, y, K, tmp, n, model):
+    def stages(t, h, t_last, y, K, tmp, n, model):
+        _stage(1, t, h, t_last, y, K, tmp, n, model)
+        _stage(2, t, h, t_last, y, K, tmp, n, model)
+        _stage(3, t, h, t_last, y, K, tmp, n, model)
+        _stage(4, t, h, t_last, y, K, tmp, n, model)
+        _stage(5, t, h, t_last, y, K, tmp, n, model)
+        _stage(6, t, h, t_last, y, K, tmp, n, model)
+        _stage(7, t, h, t_last, y, K, tmp, n, model)
+        _stage(8, t, h, t_last, y, K, tmp, n, model)
+        _stage(9, t, h, t_last, y, K, tmp, n, model)
+        _stage(10, t, h, t_last, y, K, tmp, n, model)
+        _stage(11, t, h, t_last, y, K, tmp, n, model)
+        _stage(12, t, h, t_last, y, K, tmp, n, model)
+    return stages
 
 
 @njit(cache=True, forceinline=True)

@@ -9,7 +9,9 @@ targets do differently is declared here, once:
 * ``work_vector(n)``, ``work_matrix(rows, n)``: ``np.empty`` on the CPU; on a GPU a thread's own
   local array (``n`` and ``rows`` compile-time constants there: the state's size, a method's
   stage count);
-* ``next_toward(x, y)``: ``np.nextafter(x, y)`` (libdevice's ``nextafter`` on a GPU).
+* ``next_toward(x, y)``: ``np.nextafter(x, y)`` (libdevice's ``nextafter`` on a GPU);
+* ``on_gpu()``: a compile-time False, or True on a GPU, for code shaped for the device (the same
+  arithmetic); ``gpu_overload``: a function's implementation on a GPU alone.
 
 Nothing here imports numba-cuda until ``enable_cuda`` is called.
 """
@@ -38,7 +40,7 @@ def overload(func: Callable, **options) -> Callable[[Callable], Callable]:
     return register
 
 
-def _gpu_overload(func: Callable, **options) -> Callable[[Callable], Callable]:
+def gpu_overload(func: Callable, **options) -> Callable[[Callable], Callable]:
     """``func``'s implementation on a GPU (registered by ``enable_cuda``)."""
     def register(impl: Callable) -> Callable:
         _GPU_ONLY.append((func, options, impl))
@@ -77,6 +79,11 @@ def work_matrix(rows, n):
     raise NotImplementedError("compiled code only")
 
 
+def on_gpu():
+    """Whether the code is being compiled for a GPU (a compile-time constant)."""
+    raise NotImplementedError("compiled code only")
+
+
 def next_toward(x, y):
     """The float64 next to ``x`` in the direction of ``y`` (``np.nextafter``)."""
     raise NotImplementedError("compiled code only")
@@ -92,12 +99,17 @@ def _work_matrix_cpu(rows, n):
     return lambda rows, n: np.empty((rows, n))
 
 
+@cpu_overload(on_gpu, inline="always")
+def _on_gpu_cpu():
+    return lambda: False
+
+
 @cpu_overload(next_toward, inline="always")
 def _next_toward_cpu(x, y):
     return lambda x, y: np.nextafter(x, y)
 
 
-@_gpu_overload(work_vector, inline="always")
+@gpu_overload(work_vector, inline="always")
 def _work_vector_gpu(n):
     if not isinstance(n, types.IntegerLiteral):  # numba retries with the literal
         return None
@@ -107,7 +119,7 @@ def _work_vector_gpu(n):
     return lambda n: cuda.local.array(size, types.float64)
 
 
-@_gpu_overload(work_matrix, inline="always")
+@gpu_overload(work_matrix, inline="always")
 def _work_matrix_gpu(rows, n):
     if not (isinstance(rows, types.IntegerLiteral) and isinstance(n, types.IntegerLiteral)):
         return None
@@ -117,7 +129,12 @@ def _work_matrix_gpu(rows, n):
     return lambda rows, n: cuda.local.array(shape, types.float64)
 
 
-@_gpu_overload(next_toward, inline="always")
+@gpu_overload(on_gpu, inline="always")
+def _on_gpu_gpu():
+    return lambda: True
+
+
+@gpu_overload(next_toward, inline="always")
 def _next_toward_gpu(x, y):
     from numba.cuda import libdevice
 
