@@ -63,6 +63,8 @@ PORTRAIT_NOW = "/phase/now"  # L at each visual sample
 TOP_POTENTIAL = "/top/potential"  # Lagrange top: [U(θ(t)), E′] J, the effective potential along the motion and its level
 EULER_THETA_TURNING = "/euler/theta/turning"  # Lagrange top: the turning points [θ₁, θ₂] from the cubic, drawn on the θ plot
 TRAILS = (AXIS_TIP, HERPOLHODE_TRAIL, POLHODE_TRAIL)  # drawn over the trailing window
+PLOT_ORDER = (OMEGA, L_SPACE, EULER_THETA, EULER_PSI, EULER_SPIN_RATE, TOP_POTENTIAL, ENERGY, INVARIANTS_LOG, ROTOR_SPEED,
+              ROTOR_MOMENTUM, ROTOR_TORQUE, LOAD_TORQUE_BODY, LOAD_TORQUE_SPACE, LOAD_POWER)  # the plots' reading order: the layout's grid, `rotlab plot`'s figure
 
 LEGEND_HEADROOM = 0.45  # a plot with a legend gets this fraction of its data span above the data
 
@@ -132,6 +134,8 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
         out += [Plot("M of the loads, body frame (N·m)", LOAD_TORQUE_BODY, True, rng(LOAD_TORQUE_BODY, True)),
                 Plot("M of the loads, space frame (N·m)", LOAD_TORQUE_SPACE, True, rng(LOAD_TORQUE_SPACE, True)),
                 Plot("Power of the loads (W)", LOAD_POWER, False, rng(LOAD_POWER, False))]
+    motion.sort(key=lambda p: PLOT_ORDER.index(p.origin))
+    out.sort(key=lambda p: PLOT_ORDER.index(p.origin))
     if len(motion) + len(out) <= MAX_PLOTS_ONE_TAB:
         return {MOTION: motion + out}
     return {MOTION: motion, ENERGY_TAB: out}

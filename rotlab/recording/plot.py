@@ -27,9 +27,6 @@ from rotlab.recording.reader import entity_paths, query_matches, read_series, re
 
 FORMATS = (".pdf", ".svg", ".png")
 MAX_POINTS = 4000  # per series drawn: longer ones become their min-max envelope
-ORDER = (layout.OMEGA, layout.L_SPACE, layout.EULER_THETA, layout.EULER_PSI, layout.EULER_SPIN_RATE, layout.TOP_POTENTIAL,
-         layout.ENERGY, layout.INVARIANTS_LOG, layout.ROTOR_SPEED, layout.ROTOR_MOMENTUM, layout.ROTOR_TORQUE, layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE,
-         layout.LOAD_POWER)
 XYZ = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z (p, q, r) in red, green, blue, as in the viewer
 LINE_STYLES = ("-", "--", ":", "-.")  # overlaid runs, in the order given
 
@@ -48,12 +45,13 @@ def panels(recording: Path) -> list[Panel]:
     for name, origin, _ in view_queries(recording).values():  # both layouts a streamed run sends (its first chunk's, its end's)
         if origin.startswith(layout.SECTIONS + "/"):
             found[origin] = Panel("section_" + origin.rsplit("/", 1)[1], name, origin, section=True)
-        elif origin in ORDER or origin.startswith(layout.EVENTS + "/"):
+        elif origin in layout.PLOT_ORDER or origin.startswith(layout.EVENTS + "/"):
             key = "event_" + origin.rsplit("/", 1)[1] if origin.startswith(layout.EVENTS + "/") else origin.rsplit("/", 1)[1]
             found[origin] = Panel(key, name, origin)
 
     def rank(panel: Panel) -> tuple[int, str]:
-        return (ORDER.index(panel.origin) if panel.origin in ORDER else len(ORDER) + panel.section, panel.origin)
+        order = layout.PLOT_ORDER
+        return (order.index(panel.origin) if panel.origin in order else len(order) + panel.section, panel.origin)
 
     return sorted(found.values(), key=rank)
 
