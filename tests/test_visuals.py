@@ -267,7 +267,7 @@ def test_load_power_integrates_to_the_work(recordings):
     t = 2 s where the space-frame pulse switches on: the last sample (right limit) is left out."""
     traj, path = recordings["general"]
     t, power = read_series(path, layout.LOAD_POWER)
-    t, power = t[:-1], power[:-1, 0]
+    t, power = t[:-1], power[:-1, 0] * 1e-3  # drawn in mW (general.toml's power is ~0.1–0.7 W: ``visuals.plot_unit``)
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])
     np.testing.assert_allclose(work, traj.work[:-1] - traj.work[0], atol=1e-3 * np.max(np.abs(traj.work)))
     _, body = read_series(path, layout.LOAD_TORQUE_BODY)
@@ -438,3 +438,28 @@ def test_animate_hides_what_the_body_covers():
     assert behind(points, centre, axes, half, camera).tolist() == [True, False, True, False, False]
     assert camera == pytest.approx(np.array([np.cos(np.radians(22)) * np.cos(np.radians(-58)),
                                              np.cos(np.radians(22)) * np.sin(np.radians(-58)), np.sin(np.radians(22))]))
+
+
+def test_small_load_plots_are_drawn_in_a_submultiple_named_in_the_title(tmp_path):
+    """Rerun labels a plot of 1e-6 W '−0.000 001' and gives a 1e-5 N·m range one tick: the loads'
+    torque and power plots are drawn in the SI submultiple that brings their largest value of the
+    first chunk to ≥ 1, named in the plot's title (``visuals.plot_unit``).  detumbling.toml
+    (B-dot: |M| ≤ ~1e-5 N·m, |P| ≤ ~1e-6 W) is drawn in µN·m and µW: the recorded series equal the
+    torque computed from the run in N·m × 1e6, in both frames."""
+    from rotlab.recording import visuals
+    from rotlab.recording.reader import view_queries
+
+    assert visuals.plot_unit(np.array([2e-5, -3e-5])) == (1e6, "µ")
+    assert visuals.plot_unit(np.array([0.05, np.nan])) == (1e3, "m")
+    assert visuals.plot_unit(np.array([1.0, -250.0])) == (1.0, "")
+    assert visuals.plot_unit(np.zeros(3)) == (1.0, "") and visuals.plot_unit(np.array([np.inf])) == (1.0, "")
+    assert visuals.plot_unit(np.array([1e-16])) == (1e12, "p")
+    traj = rotlab.simulate(rotlab.load(CONFIGS / "detumbling.toml", duration=200.0))
+    path = write_recording(traj, tmp_path / "d.rrd")
+    names = {name for name, _, _ in view_queries(path).values()}
+    assert {"M of the loads, body frame (µN·m)", "M of the loads, space frame (µN·m)", "Power of the loads (µW)"} <= names, names
+    raw = visuals.load_series(traj)
+    for entity in (layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE, layout.LOAD_POWER):
+        _, drawn = read_series(path, entity)
+        np.testing.assert_allclose(drawn, raw[entity][0] * 1e6, rtol=1e-12, atol=1e-12 * np.max(np.abs(drawn)))
+        assert 1.0 <= np.max(np.abs(drawn)) < 1e3

@@ -99,10 +99,13 @@ MAX_PLOTS_ONE_TAB = 6  # up to a 2 × 3 grid in one tab; more: motion and energy
 
 
 def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_energy_span: float,
-          min_momentum_span: float = 0.0) -> dict[str, list[Plot]]:
+          min_momentum_span: float = 0.0, load_prefixes: dict[str, str] | None = None) -> dict[str, list[Plot]]:
     """The plots of a run by tab (``MOTION``, ``ENERGY_TAB``), in reading order; only those
     whose entities exist in ``series``.  A constant energy, or L, is drawn flat in a range of at
-    least ``min_energy_span`` (J), ``min_momentum_span`` (kg·m²/s), not as its rounding magnified."""
+    least ``min_energy_span`` (J), ``min_momentum_span`` (kg·m²/s), not as its rounding magnified.
+    ``load_prefixes``: the SI prefix of the loads' torque and power plots ("torque", "power"; the
+    series are in those units)."""
+    torque, power = ((load_prefixes or {}).get(k, "") for k in ("torque", "power"))
     def rng(entity: str, legend: bool, min_span: float = 0.0):
         return plot_range(series[entity][0], legend, min_span) if entity in series else None
 
@@ -131,9 +134,9 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
     if ROTOR_TORQUE in series:
         out.append(Plot("Driven rotors' drive torque u (N·m)", ROTOR_TORQUE, True, rng(ROTOR_TORQUE, True)))
     if LOAD_TORQUE_BODY in series:
-        out += [Plot("M of the loads, body frame (N·m)", LOAD_TORQUE_BODY, True, rng(LOAD_TORQUE_BODY, True)),
-                Plot("M of the loads, space frame (N·m)", LOAD_TORQUE_SPACE, True, rng(LOAD_TORQUE_SPACE, True)),
-                Plot("Power of the loads (W)", LOAD_POWER, False, rng(LOAD_POWER, False))]
+        out += [Plot(f"M of the loads, body frame ({torque}N·m)", LOAD_TORQUE_BODY, True, rng(LOAD_TORQUE_BODY, True)),
+                Plot(f"M of the loads, space frame ({torque}N·m)", LOAD_TORQUE_SPACE, True, rng(LOAD_TORQUE_SPACE, True)),
+                Plot(f"Power of the loads ({power}W)", LOAD_POWER, False, rng(LOAD_POWER, False))]
     motion.sort(key=lambda p: PLOT_ORDER.index(p.origin))
     out.sort(key=lambda p: PLOT_ORDER.index(p.origin))
     if len(motion) + len(out) <= MAX_PLOTS_ONE_TAB:

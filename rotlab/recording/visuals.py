@@ -132,9 +132,32 @@ def rotor_series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
     return out
 
 
-def load_series(traj: Trajectory, rows: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, list[str]]]:
+SUBMULTIPLES = ((1.0, ""), (1e3, "m"), (1e6, "µ"), (1e9, "n"), (1e12, "p"))  # (factor, SI prefix) for small plotted values
+
+
+def plot_unit(values: np.ndarray) -> tuple[float, str]:
+    """(factor, SI prefix) that brings the largest finite |value| to at least 1 (at most p): a plot
+    of tiny values in readable ticks (Rerun labels 1e-6 "0.000 001", and a 1e-5 range gets one
+    tick).  Values of 1 or more, or none, keep the base unit."""
+    finite = np.abs(values[np.isfinite(values)])
+    largest = float(finite.max()) if finite.size else 0.0
+    for factor, prefix in SUBMULTIPLES:
+        if largest * factor >= 1.0:
+            return factor, prefix
+    return SUBMULTIPLES[-1] if largest > 0.0 else SUBMULTIPLES[0]
+
+
+def load_units(series: dict[str, tuple[np.ndarray, list[str]]]) -> dict[str, tuple[float, str]]:
+    """``plot_unit`` of the loads' torque (both frames) and power in ``load_series`` (empty without loads)."""
+    if layout.LOAD_TORQUE_BODY not in series:
+        return {}
+    return {"torque": plot_unit(series[layout.LOAD_TORQUE_BODY][0]), "power": plot_unit(series[layout.LOAD_POWER][0])}
+
+
+def load_series(traj: Trajectory, rows: np.ndarray | None = None,
+                units: dict[str, tuple[float, str]] | None = None) -> dict[str, tuple[np.ndarray, list[str]]]:
     """The torque of the non-conservative loads (body and space frame) and its power M·ω, at
-    ``rows`` (all samples when None)."""
+    ``rows`` (all samples when None), in N·m and W times the ``units`` factors (``load_units``)."""
     views = [v for v in loads_view.load_views(traj.scene) if not v.conservative]
     if not views:
         return {}
@@ -145,6 +168,8 @@ def load_series(traj: Trajectory, rows: np.ndarray | None = None) -> dict[str, t
     unit_q = q_p / np.linalg.norm(q_p, axis=1, keepdims=True)
     space = quat.rotate_to_space_array(unit_q, total_p)
     power = np.einsum("ij,ij->i", total_p, w_p)
+    if units:
+        body, space, power = body * units["torque"][0], space * units["torque"][0], power * units["power"][0]
     return {
         layout.LOAD_TORQUE_BODY: (body, ["M_x", "M_y", "M_z"]),  # body axes x, y, z (load numbers are M1, F1 … in 3D)
         layout.LOAD_TORQUE_SPACE: (space, ["M_X", "M_Y", "M_Z"]),

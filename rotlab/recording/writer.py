@@ -149,7 +149,7 @@ class RecordingWriter:
 
     def __init__(self, sink: RecordingSink, stride: int = 1, chunk_rows: int = CHUNK_ROWS) -> None:
         self.sink, self.rec, self.stride, self.chunk_rows = sink, sink.rec, max(1, int(stride)), chunk_rows
-        self.scales: tuple[float, float, dict[str, float]] | None = None  # ω, L, load arrow lengths per unit: fixed by the first chunk
+        self.scales: Scales | None = None  # fixed by the first chunk
         self.energy: tuple[float, float] | None = None
         self.visual: list[Trajectory] = []  # visual samples not sent yet
         self.visual_rows = 0
@@ -159,7 +159,7 @@ class RecordingWriter:
     def _start(self, first: Trajectory) -> None:
         """Blueprint and static styling from the first chunk (a live viewer shows them at once)."""
         views = _views(first)
-        self.scales = (views.omega_scale, views.L_scale, views.load_scales)
+        self.scales = (views.omega_scale, views.L_scale, views.load_scales, views.load_units)
         self.sink.open(run_blueprint(first, views))
         _write_static(self.rec, first, views, first.summary())
 
@@ -245,7 +245,8 @@ def run_blueprint(traj: Trajectory, views: _Views, events: dict[str, EventLog] |
     unit = "deg" if visuals.degrees_wanted(traj.scene) else "rad"
     window = visuals.trail_window(traj.t, traj.omega) if len(traj.t) else None
     recent = visuals.recent_window(traj.t, traj.omega) if len(traj.t) else None
-    groups = layout.plots(all_series, unit, min_energy_span, min_momentum_span)
+    prefixes = {name: prefix for name, (_, prefix) in views.load_units.items()}
+    groups = layout.plots(all_series, unit, min_energy_span, min_momentum_span, prefixes)
     active = layout.ENERGY_TAB if traj.scene.has_work else layout.MOTION  # loads at work: show them first
     if events and any(len(log.record) >= 2 for log in events.values()):  # a Poincaré section: the reason for the run
         active = layout.EVENTS_TAB
@@ -256,9 +257,10 @@ def run_blueprint(traj: Trajectory, views: _Views, events: dict[str, EventLog] |
                             recent=recent)
 
 
-def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
-    """Every time series of the layout: entity → ((N, k) float64 values, k series names).
-    Names are short symbols (the plot titles carry units and frames)."""
+def series(traj: Trajectory, load_units: dict[str, tuple[float, str]] | None = None) -> dict[str, tuple[np.ndarray, list[str]]]:
+    """Every time series of the layout: entity → ((N, k) float64 values, k series names), the
+    loads' in ``load_units`` (``visuals.load_units``).  Names are short symbols (the plot titles
+    carry units and frames)."""
     q = traj.quaternion
     out: dict[str, tuple[np.ndarray, list[str]]] = {
         layout.QUATERNION: (q, ["q0", "q1", "q2", "q3"]),
@@ -282,7 +284,7 @@ def series(traj: Trajectory) -> dict[str, tuple[np.ndarray, list[str]]]:
         out[layout.EULER_ANGLES] = (traj.euler_angles, ["ψ", "θ", "φ"])
     out.update(visuals.euler_series(traj))
     out.update(portrait_view.top_series(traj, visuals.degrees_wanted(traj.scene)))
-    out.update(visuals.load_series(traj))
+    out.update(visuals.load_series(traj, units=load_units))
     out.update(visuals.rotor_series(traj))
     return out
 
@@ -305,20 +307,26 @@ class _Views:
     geometry: Geometry
     series: dict[str, tuple[np.ndarray, list[str]]]  # every time series: see ``series``
     load_scales: dict[str, float]  # arrow length per N and per N·m
+    load_units: dict[str, tuple[float, str]]  # the load plots' (factor, prefix): torque, power
 
 
-def _views(traj: Trajectory, scales: tuple[float, float, dict[str, float]] | None = None) -> _Views:
-    """Display quantities of ``traj``; arrow ``scales`` (ω, L, loads) as given, else from ``traj``."""
+Scales = tuple[float, float, dict[str, float], dict[str, tuple[float, str]]]  # ω, L, load arrow lengths per unit; the load plots' units
+
+
+def _views(traj: Trajectory, scales: Scales | None = None) -> _Views:
+    """Display quantities of ``traj``; ``scales`` (arrows: ω, L, loads; the load plots' units
+    ``visuals.load_units``) as given, else from ``traj``."""
     shape = equivalent_ellipsoid(traj.scene.scenario.body)
     unit_q = traj.quaternion / np.linalg.norm(traj.quaternion, axis=1, keepdims=True)
     omega_space = rotate_to_space_array(unit_q, traj.omega)
-    omega_scale, L_scale, load_scales = scales or (_arrow_scale(omega_space, visuals.OMEGA_LENGTH * shape.size),
-                                                   _arrow_scale(traj.L_space, visuals.L_LENGTH * shape.size),
-                                                   visuals.load_scales(traj, shape.size))
+    omega_scale, L_scale, load_scales, load_units = scales or (_arrow_scale(omega_space, visuals.OMEGA_LENGTH * shape.size),
+                                                               _arrow_scale(traj.L_space, visuals.L_LENGTH * shape.size),
+                                                               visuals.load_scales(traj, shape.size),
+                                                               visuals.load_units(visuals.load_series(traj)))
     geometry = scene_geometry(traj, unit_q, omega_space, omega_scale, reach=visuals.AXES_LENGTH * shape.size)
     arrows = (visuals.drawn(omega_space, omega_scale, visuals.OMEGA_LENGTH * shape.size),
               visuals.drawn(traj.L_space, L_scale, visuals.L_LENGTH * shape.size))
-    return _Views(shape, unit_q, omega_space, omega_scale, L_scale, *arrows, geometry, series(traj), load_scales)
+    return _Views(shape, unit_q, omega_space, omega_scale, L_scale, *arrows, geometry, series(traj, load_units), load_scales, load_units)
 
 
 def _write_static(rec: rr.RecordingStream, traj: Trajectory, views: _Views, summary: RunSummary) -> None:
