@@ -105,3 +105,15 @@ def test_a_long_run_has_its_recent_motion_beside_the_whole_run_and_a_short_one_n
     omega = np.column_stack([np.cos(t), np.sin(t), np.zeros_like(t)])  # one turn in 2π s
     assert visuals.recent_window(t, omega) == pytest.approx(12 * 2 * np.pi, rel=1e-9)
     assert visuals.recent_window(t[:10_001], omega[:10_001]) is None  # 100 s: 75 s would be most of it
+
+
+def test_a_longer_legend_gets_more_room_above_the_data():
+    """The legend sits in the plot's top corner: the range leaves 5% below the data and, above
+    it, 5% without a legend, 45% of the data span for up to 3 legend lines and 22% more for each
+    further line (general.toml's 5 energies: T, V, T+V, W, T+V−W covered the top of T+V−W)."""
+    values = np.array([[0.0, 1.0], [2.0, 3.0]])  # data from 0 to 3
+    assert layout.plot_range(values, 0) == pytest.approx((-0.15, 3.15))
+    assert layout.plot_range(values, 2) == pytest.approx((-0.15, 3.0 + 0.45 * 3))
+    assert layout.plot_range(values, 3) == pytest.approx((-0.15, 3.0 + 0.45 * 3))
+    assert layout.plot_range(values, 5) == pytest.approx((-0.15, 3.0 + 0.89 * 3))
+    assert layout.plot_range(np.array([np.nan]), 3) is None

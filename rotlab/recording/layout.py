@@ -66,12 +66,13 @@ TRAILS = (AXIS_TIP, HERPOLHODE_TRAIL, POLHODE_TRAIL)  # drawn over the trailing 
 PLOT_ORDER = (OMEGA, L_SPACE, EULER_THETA, EULER_PSI, EULER_SPIN_RATE, TOP_POTENTIAL, ENERGY, INVARIANTS_LOG, ROTOR_SPEED,
               ROTOR_MOMENTUM, ROTOR_TORQUE, LOAD_TORQUE_BODY, LOAD_TORQUE_SPACE, LOAD_POWER)  # the plots' reading order: the layout's grid, `rotlab plot`'s figure
 
-LEGEND_HEADROOM = 0.45  # a plot with a legend gets this fraction of its data span above the data
+LEGEND_HEADROOM = 0.45  # a plot with a legend of up to 3 lines gets this fraction of its data span above the data
+LEGEND_LINE_HEADROOM = 0.22  # ... and this much more for each further line (general.toml's 5 energies covered T+V−W)
 
 
-def plot_range(values: np.ndarray, legend: bool, min_span: float = 0.0) -> tuple[float, float] | None:
-    """A y range for a plot: the data (widened to ``min_span``), plus room above it for the
-    legend in the top corner, so that the legend never covers a line."""
+def plot_range(values: np.ndarray, legend_lines: int, min_span: float = 0.0) -> tuple[float, float] | None:
+    """A y range for a plot: the data (widened to ``min_span``), plus room above it for a legend
+    of ``legend_lines`` lines (0: none) in the top corner, so that the legend never covers a line."""
     finite = values[np.isfinite(values)]
     if not finite.size:
         return None
@@ -80,7 +81,8 @@ def plot_range(values: np.ndarray, legend: bool, min_span: float = 0.0) -> tuple
     if high - low < span:
         middle = 0.5 * (low + high)
         low, high = middle - 0.5 * span, middle + 0.5 * span
-    return low - 0.05 * span, high + (LEGEND_HEADROOM if legend else 0.05) * span
+    headroom = LEGEND_HEADROOM + LEGEND_LINE_HEADROOM * max(0, legend_lines - 3) if legend_lines else 0.05
+    return low - 0.05 * span, high + headroom * span
 
 
 @dataclass(frozen=True)
@@ -107,7 +109,7 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
     series are in those units)."""
     torque, power = ((load_prefixes or {}).get(k, "") for k in ("torque", "power"))
     def rng(entity: str, legend: bool, min_span: float = 0.0):
-        return plot_range(series[entity][0], legend, min_span) if entity in series else None
+        return plot_range(series[entity][0], len(series[entity][1]) if legend else 0, min_span) if entity in series else None
 
     motion = [
         Plot("ω body (rad/s)", OMEGA, True, rng(OMEGA, True)),
@@ -126,7 +128,7 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
     logs = tuple(e for e in series if e.startswith(INVARIANTS_LOG + "/"))
     if logs:
         values = np.column_stack([series[e][0][:, 0] for e in logs])
-        out.append(Plot("Invariant drift, log10 |relative|", INVARIANTS_LOG, True, plot_range(values, True)))
+        out.append(Plot("Invariant drift, log10 |relative|", INVARIANTS_LOG, True, plot_range(values, len(logs))))
     if ROTOR_SPEED in series:
         out.append(Plot("Driven rotors' speed Ω (rpm)", ROTOR_SPEED, True, rng(ROTOR_SPEED, True)))
     if ROTOR_MOMENTUM in series and (ROTOR_SPEED not in series or len(series[ROTOR_SPEED][1]) < len(series[ROTOR_MOMENTUM][1])):
