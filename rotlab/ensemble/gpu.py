@@ -14,11 +14,12 @@ either device.
   whole sample grid lives in device memory, (n, 8) doubles, and the cases run in batches that fit
   ``MEMORY_FRACTION`` of the device's free memory.
 
-The kernels are compiled without fused multiply–adds (NVVM's ``-fma=0``; its default contracts
-a·b + c into one rounding, where the CPU's kernels round the product and the sum apart), so the
-device does the CPU's IEEE operations in the CPU's order.  What may still differ is a library
-function's last bit (libdevice's ``pow``, ``sin``, … against the C library's): docs/benchmarks.md
-has the measured agreement.  numba's CUDA simulator runs these kernels on the CPU's compiled
+The kernels are compiled without fused multiply–adds (NVVM's ``-fma=0``, and no link-time
+optimisation, ``_jit``: numba-cuda's defaults contract a·b + c into one rounding, where the CPU's
+kernels round the product and the sum apart), so the device does the CPU's IEEE operations in the
+CPU's order: measured bit for bit on an H100 (docs/benchmarks.md).  What may still differ is a
+library function's last bit (libdevice's ``sin``, ``exp``, … in a formula load, against the C
+library's).  numba's CUDA simulator runs these kernels on the CPU's compiled
 functions: there they are bit for bit (tests/test_gpu.py).
 
 Importing this module imports numba-cuda (not rotlab's configuration, recording or CLI):
