@@ -28,6 +28,7 @@ Importing this module imports numba-cuda (not rotlab's configuration, recording 
 
 from __future__ import annotations
 
+import threading
 from contextlib import contextmanager
 
 import numpy as np
@@ -106,6 +107,9 @@ def _simulated_arrays(kernel):
     return kernel
 
 
+_COMPILING = threading.Lock()
+
+
 @contextmanager
 def _compiling():
     """Kernels compiled (on their first launch) in this block get ``-fma=<FUSED_MULTIPLY_ADD>``:
@@ -116,16 +120,17 @@ def _compiling():
         return
     from numba.cuda.cudadrv import nvvm
 
-    compile_ir = nvvm.compile_ir
+    with _COMPILING:  # one block at a time: another thread's would restore the option midway
+        compile_ir = nvvm.compile_ir
 
-    def compile_with_fma_option(llvmir, **options):
-        return compile_ir(llvmir, **{"fma": FUSED_MULTIPLY_ADD, **options})
+        def compile_with_fma_option(llvmir, **options):
+            return compile_ir(llvmir, **{"fma": FUSED_MULTIPLY_ADD, **options})
 
-    nvvm.compile_ir = compile_with_fma_option
-    try:
-        yield
-    finally:
-        nvvm.compile_ir = compile_ir
+        nvvm.compile_ir = compile_with_fma_option
+        try:
+            yield
+        finally:
+            nvvm.compile_ir = compile_ir
 
 
 def _jit(kernel):
