@@ -457,7 +457,7 @@ def test_small_load_plots_are_drawn_in_a_submultiple_named_in_the_title(tmp_path
     traj = rotlab.simulate(rotlab.load(CONFIGS / "detumbling.toml", duration=200.0))
     path = write_recording(traj, tmp_path / "d.rrd")
     names = {name for name, _, _ in view_queries(path).values()}
-    assert {"M of the loads, body frame (µN·m)", "M of the loads, space frame (µN·m)", "Power of the loads (µW)"} <= names, names
+    assert {"M of loads, body frame (µN·m)", "M of loads, space frame (µN·m)", "Power of loads (µW)"} <= names, names
     raw = visuals.load_series(traj)
     for entity in (layout.LOAD_TORQUE_BODY, layout.LOAD_TORQUE_SPACE, layout.LOAD_POWER):
         _, drawn = read_series(path, entity)

@@ -136,9 +136,9 @@ def plots(series: dict[str, tuple[np.ndarray, list[str]]], angle_unit: str, min_
     if ROTOR_TORQUE in series:
         out.append(Plot("Driven rotors' drive torque u (N·m)", ROTOR_TORQUE, True, rng(ROTOR_TORQUE, True)))
     if LOAD_TORQUE_BODY in series:
-        out += [Plot(f"M of the loads, body frame ({torque}N·m)", LOAD_TORQUE_BODY, True, rng(LOAD_TORQUE_BODY, True)),
-                Plot(f"M of the loads, space frame ({torque}N·m)", LOAD_TORQUE_SPACE, True, rng(LOAD_TORQUE_SPACE, True)),
-                Plot(f"Power of the loads ({power}W)", LOAD_POWER, False, rng(LOAD_POWER, False))]
+        out += [Plot(f"M of loads, body frame ({torque}N·m)", LOAD_TORQUE_BODY, True, rng(LOAD_TORQUE_BODY, True)),
+                Plot(f"M of loads, space frame ({torque}N·m)", LOAD_TORQUE_SPACE, True, rng(LOAD_TORQUE_SPACE, True)),
+                Plot(f"Power of loads ({power}W)", LOAD_POWER, False, rng(LOAD_POWER, False))]
     motion.sort(key=lambda p: PLOT_ORDER.index(p.origin))
     out.sort(key=lambda p: PLOT_ORDER.index(p.origin))
     if len(motion) + len(out) <= MAX_PLOTS_ONE_TAB:
