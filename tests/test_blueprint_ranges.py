@@ -35,7 +35,7 @@ def test_plot_ranges_cover_the_whole_streamed_run(cli, tmp_path):
     assert result.exit_code == 0, result.output
     _, torque = read_series(tmp_path / "g.rrd", layout.LOAD_TORQUE_BODY)
     low, high = float(np.min(torque)), float(np.max(torque))
-    ranges = _ranges(tmp_path / "g.rrd", "M of loads, body frame (mN·m)")  # general.toml's first chunk: |M| < 1 N·m
+    ranges = _ranges(tmp_path / "g.rrd", "M of loads, body frame (mN·m)")  # general.toml: |M| < 1 N·m at t = 0 and in its loads' own bound
     assert ranges, "no y range for the body-frame torque plot"
     assert any(lo <= low and hi >= high for lo, hi in ranges), (low, high, ranges)
 

@@ -76,3 +76,31 @@ def test_several_runs_are_overlaid(cli, top_rrd, tmp_path):
     assert result.exit_code == 0, result.output
     svg = (tmp_path / "cmp.svg").read_text()
     assert "Comparison: top, rk4" in svg and "top: θ" in svg and "rk4: θ" in svg and "rk4: T+V−W" in svg
+
+
+def test_overlaid_runs_are_drawn_in_the_first_runs_unit(cli, tmp_path, monkeypatch):
+    """Each run's load plots have their own SI prefix (``visuals.plot_unit``): overlaid, a run in
+    µN·m is drawn in the first run's mN·m (× 1e-3), not as its numbers; units that no prefix
+    relates (deg and rad) are refused in one line."""
+    from rotlab.errors import InputError
+    from rotlab.recording import plot as plot_module
+    from rotlab.recording.plot import Panel, _Run, _unit_factor
+
+    run = _Run(tmp_path / "b.rrd", "b", [], set(), 0.0, 1.0)
+    milli = Panel("torque_body", "M of loads, body frame (mN·m)", "/loads/torque_body")
+    assert _unit_factor(milli, Panel("torque_body", "M of loads, body frame (µN·m)", "/loads/torque_body"), run) == 1e-3
+    assert _unit_factor(milli, Panel("torque_body", "M of loads, body frame (N·m)", "/loads/torque_body"), run) == 1e3
+    assert _unit_factor(milli, milli, run) == 1.0
+    assert _unit_factor(Panel("power", "Power of loads (W)", "/loads/power"), Panel("power", "Power of loads (nW)", "/loads/power"), run) == 1e-9
+    with pytest.raises(InputError, match="deg.*rad|rad.*deg"):
+        _unit_factor(Panel("theta", "θ nutation (deg)", "/euler/theta"), Panel("theta", "θ nutation (rad)", "/euler/theta"), run)
+
+    rotlab.save(tmp_path / "general.rrd", rotlab.simulate(CONFIGS / "general.toml", duration=1.0))
+    rotlab.save(tmp_path / "detumbling.rrd", rotlab.simulate(CONFIGS / "detumbling.toml", duration=1.0))
+    drawn = []
+    original = plot_module._series
+    monkeypatch.setattr(plot_module, "_series", lambda ax, run, panel, span, style, factor=1.0: (drawn.append((run.label, factor)),
+                                                                                                  original(ax, run, panel, span, style, factor)))
+    result = cli("plot", "general.rrd", "detumbling.rrd", "-o", "both.svg", "--panels", "torque_body")
+    assert result.exit_code == 0, result.output
+    assert drawn == [("general", 1.0), ("detumbling", 1e-3)]  # mN·m and µN·m

@@ -442,10 +442,11 @@ def test_animate_hides_what_the_body_covers():
 
 def test_small_load_plots_are_drawn_in_a_submultiple_named_in_the_title(tmp_path):
     """Rerun labels a plot of 1e-6 W '−0.000 001' and gives a 1e-5 N·m range one tick: the loads'
-    torque and power plots are drawn in the SI submultiple that brings their largest value of the
-    first chunk to ≥ 1, named in the plot's title (``visuals.plot_unit``).  detumbling.toml
-    (B-dot: |M| ≤ ~1e-5 N·m, |P| ≤ ~1e-6 W) is drawn in µN·m and µW: the recorded series equal the
-    torque computed from the run in N·m × 1e6, in both frames."""
+    torque and power plots are drawn in the SI submultiple that brings their value at the run's
+    first sample (or the loads' own bound) to ≥ 1, named in the plot's title
+    (``visuals.plot_unit``, ``visuals.load_units``).  detumbling.toml (B-dot: |M| ≤ ~1e-5 N·m,
+    |P| ≤ ~1e-6 W) is drawn in µN·m and µW: the recorded series equal the torque computed from the
+    run in N·m × 1e6, in both frames."""
     from rotlab.recording import visuals
     from rotlab.recording.reader import view_queries
 
@@ -463,3 +464,41 @@ def test_small_load_plots_are_drawn_in_a_submultiple_named_in_the_title(tmp_path
         _, drawn = read_series(path, entity)
         np.testing.assert_allclose(drawn, raw[entity][0] * 1e6, rtol=1e-12, atol=1e-12 * np.max(np.abs(drawn)))
         assert 1.0 <= np.max(np.abs(drawn)) < 1e3
+
+
+RAMP = """
+[[loads]]
+type = "harmonic_torque"
+frame = "body"
+amplitude = [0.01, 0.0, 0.0]
+angular_frequency = 1.0
+phase = 1e-6
+"""  # ~1e-8 N·m at t = 0, 0.01 N·m a second later: a first chunk of one sample saw nN·m
+
+
+@pytest.mark.parametrize("config", ["general.toml", "detumbling.toml", "ramp"])
+def test_the_load_plots_unit_does_not_depend_on_how_the_run_is_cut(config, tmp_path, monkeypatch):
+    """A streamed run flushes what it has after 0.5 s, so its first chunk can be one sample (a
+    cold numba cache, a busy machine): the unit is chosen from the run's first sample and the
+    loads' own bound, never from a chunk.  Streamed in 1-sample chunks, the recording's titles and
+    torque values equal the whole run's written at once (``rotlab.save``)."""
+    from rotlab import api
+    from rotlab.methods import stepping
+    from rotlab.recording import stream as stream_module
+    from rotlab.recording.reader import view_queries
+    from rotlab.recording.sink import RecordingSink
+    from rotlab.scene.scene import build_scene
+
+    if config == "ramp":
+        (tmp_path / "ramp.toml").write_text((CONFIGS / "euler.toml").read_text() + RAMP)
+    scenario = rotlab.load(tmp_path / "ramp.toml" if config == "ramp" else CONFIGS / config, duration=2.0)
+    monkeypatch.setattr(stepping, "WINDOW", 7)  # (both runs: an adaptive step ends at a window's last sample)
+    whole = write_recording(rotlab.simulate(scenario), tmp_path / "whole.rrd")
+    monkeypatch.setattr(stream_module, "FLUSH_ROWS", 1)
+    _, _, streamed = api.record(build_scene(scenario), RecordingSink(tmp_path / "streamed.rrd"))
+    titles = [sorted({name for name, origin, _ in view_queries(path).values() if origin.startswith("/loads/")}) for path in (whole, streamed)]
+    assert titles[0] == titles[1] and len(titles[0]) == 3, titles
+    if config == "ramp":
+        assert titles[0] == ["M of loads, body frame (mN·m)", "M of loads, space frame (mN·m)", "Power of loads (mW)"]
+    for entity in (layout.LOAD_TORQUE_BODY, layout.LOAD_POWER):
+        np.testing.assert_array_equal(read_series(streamed, entity)[1], read_series(whole, entity)[1])

@@ -88,7 +88,8 @@ def plot(recordings: list[Path], output: Path, keys: list[str] | None = None, st
             if panel.section:
                 _section(ax, run, panel, span)
             else:
-                _series(ax, run, panel, span, LINE_STYLES[style_index % len(LINE_STYLES)])
+                own = next(p for p in run.panels if p.key == panel.key)
+                _series(ax, run, panel, span, LINE_STYLES[style_index % len(LINE_STYLES)], _unit_factor(panel, own, run))
         _finish(ax, panel, span, len(runs))
     tmp = output.with_name(f".{output.stem}.{os.getpid()}.tmp{output.suffix}")
     try:
@@ -169,8 +170,27 @@ def _title(recording: Path) -> str:
     return first.lstrip("# ").strip() or recording.stem
 
 
-def _series(ax, run: _Run, panel: Panel, span: tuple[float, float], line_style: str) -> None:
-    """Every scalar entity the panel's view shows, its series named as in the viewer."""
+def _unit_factor(panel: Panel, own: Panel, run: _Run) -> float:
+    """What takes ``run``'s values of a panel (its title ``own``) to the figure's unit (``panel``'s
+    title: the first recording's): the unit in the titles' last parentheses, equal or differing
+    by an SI prefix of ``visuals.SUBMULTIPLES`` (the loads' plots choose theirs per run)."""
+    unit, theirs = _unit(panel.title), _unit(own.title)
+    if unit == theirs:
+        return 1.0
+    for factor, prefix in visuals.SUBMULTIPLES:
+        for their_factor, their_prefix in visuals.SUBMULTIPLES:
+            if unit.startswith(prefix) and theirs.startswith(their_prefix) and unit[len(prefix):] == theirs[len(their_prefix):]:
+                return factor / their_factor
+    raise InputError(str(run.path), f"its '{own.title}' is in {theirs}, the first recording's in {unit}: overlay runs whose plots share units")
+
+
+def _unit(title: str) -> str:
+    return title.rsplit("(", 1)[1].rstrip(")") if title.endswith(")") and "(" in title else ""
+
+
+def _series(ax, run: _Run, panel: Panel, span: tuple[float, float], line_style: str, factor: float = 1.0) -> None:
+    """Every scalar entity the panel's view shows, its series named as in the viewer, its values
+    times ``factor`` (``_unit_factor``)."""
     points = panel.origin.startswith(layout.EVENTS + "/")
     vectors = visuals.series_colors(panel.origin, []) is style.XYZ  # x, y, z components: red, green, blue, as in the viewer
     drawn = 0  # the panel's series so far: the same colour for the same series of every run
@@ -180,7 +200,7 @@ def _series(ax, run: _Run, panel: Panel, span: tuple[float, float], line_style: 
         except KeyError:
             continue
         keep = (t >= span[0]) & (t <= span[1])
-        t, values = t[keep], values[keep]
+        t, values = t[keep], values[keep] * factor
         for j, name in enumerate(_names(run.path, entity, values.shape[1])):
             color = XYZ[j] if vectors else f"C{drawn % 10}"
             drawn += 1

@@ -147,11 +147,18 @@ def plot_unit(values: np.ndarray) -> tuple[float, str]:
     return SUBMULTIPLES[-1] if largest > 0.0 else SUBMULTIPLES[0]
 
 
-def load_units(series: dict[str, tuple[np.ndarray, list[str]]]) -> dict[str, tuple[float, str]]:
-    """``plot_unit`` of the loads' torque (both frames) and power in ``load_series`` (empty without loads)."""
-    if layout.LOAD_TORQUE_BODY not in series:
+def load_units(traj: Trajectory) -> dict[str, tuple[float, str]]:
+    """``plot_unit`` of the loads' torque (both frames) and power (empty without loads), from what
+    is known however the run is cut into chunks: the run's first sample (``traj``'s, which starts
+    the run) and the loads' own bound at its |ω₀| (``torque_bound``; times |ω₀| for the power)."""
+    first = load_series(traj, rows=np.array([0]))
+    if not first:
         return {}
-    return {"torque": plot_unit(series[layout.LOAD_TORQUE_BODY][0]), "power": plot_unit(series[layout.LOAD_POWER][0])}
+    w0 = float(np.linalg.norm(traj.omega[0]))
+    bound = torque_bound(traj, w0)
+    torque = np.append(first[layout.LOAD_TORQUE_BODY][0], bound)
+    power = np.append(first[layout.LOAD_POWER][0], bound * w0)
+    return {"torque": plot_unit(torque), "power": plot_unit(power)}
 
 
 def load_series(traj: Trajectory, rows: np.ndarray | None = None,
@@ -363,14 +370,20 @@ def _load_arrows(traj: Trajectory, views, rows: slice) -> dict[str, tuple[np.nda
 def load_scales(traj: Trajectory, size: float) -> dict[str, float]:
     """Arrow length per N (forces) and per N·m (torques): the largest of each kind ``LOAD_LENGTH`` body sizes
     (torques from the loads' own bound at unit ω, see ``scene.loads.torque_scale``)."""
-    from rotlab.scene.loads import torque_scale
-
     forces = [np.linalg.norm(v.force) for v in loads_view.load_views(traj.scene) if v.kind == "force"]
-    torques = [torque_scale(v.arrays) + v.arrays.damping * float(np.max(np.linalg.norm(traj.omega, axis=1), initial=0.0))
-               for v in loads_view.load_views(traj.scene) if v.kind == "torque"]
-    biggest_force, biggest_torque = max(forces, default=0.0), max(torques, default=0.0)
+    biggest_force = max(forces, default=0.0)
+    biggest_torque = torque_bound(traj, float(np.max(np.linalg.norm(traj.omega, axis=1), initial=0.0)))
     return {"force": LOAD_LENGTH * size / biggest_force if biggest_force > 0 else 1.0,
             "torque": LOAD_LENGTH * size / biggest_torque if biggest_torque > 0 else 1.0}
+
+
+def torque_bound(traj: Trajectory, omega: float) -> float:
+    """The largest of the torque loads' own bounds at |ω| = ``omega`` (``scene.loads.torque_scale``,
+    plus damping × |ω|; formula loads are not bounded there: 0 for them)."""
+    from rotlab.scene.loads import torque_scale
+
+    return max((torque_scale(v.arrays) + v.arrays.damping * omega for v in loads_view.load_views(traj.scene) if v.kind == "torque"),
+               default=0.0)
 
 
 def xyzw(q: np.ndarray) -> np.ndarray:

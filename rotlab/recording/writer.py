@@ -322,7 +322,7 @@ def _views(traj: Trajectory, scales: Scales | None = None) -> _Views:
     omega_scale, L_scale, load_scales, load_units = scales or (_arrow_scale(omega_space, visuals.OMEGA_LENGTH * shape.size),
                                                                _arrow_scale(traj.L_space, visuals.L_LENGTH * shape.size),
                                                                visuals.load_scales(traj, shape.size),
-                                                               visuals.load_units(visuals.load_series(traj)))
+                                                               visuals.load_units(traj))
     geometry = scene_geometry(traj, unit_q, omega_space, omega_scale, reach=visuals.AXES_LENGTH * shape.size)
     arrows = (visuals.drawn(omega_space, omega_scale, visuals.OMEGA_LENGTH * shape.size),
               visuals.drawn(traj.L_space, L_scale, visuals.L_LENGTH * shape.size))
