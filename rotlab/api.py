@@ -71,7 +71,7 @@ def simulate(
     traj = run_scene(build_scene(scenario, torque=torque, frame=frame), progress=progress)
     if check and not traj.ok:
         stopped = Interrupted if traj.stats.interrupted else RunFailure
-        raise stopped(f"run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid samples are in exc.trajectory", trajectory=traj)
+        raise stopped(f"run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid sample{'s are' if traj.t.shape[0] != 1 else ' is'} in exc.trajectory", trajectory=traj)
     return traj
 
 

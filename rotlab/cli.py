@@ -182,7 +182,7 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
             typer.echo(line)
     if run.stats.failure:
         stopped = Interrupted if run.stats.interrupted else RunFailure
-        kept = f"; the {run.samples:,} valid samples are in {final}" if final is not None else "; no sample was kept" if run.samples == 0 else ""
+        kept = f"; the {run.samples:,} valid sample{'s are' if run.samples != 1 else ' is'} in {final}" if final is not None else "; no sample was kept" if run.samples == 0 else ""
         raise stopped(f"{config}: run stopped: {run.stats.failure}{kept}")
 
 

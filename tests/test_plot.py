@@ -104,3 +104,25 @@ def test_overlaid_runs_are_drawn_in_the_first_runs_unit(cli, tmp_path, monkeypat
     result = cli("plot", "general.rrd", "detumbling.rrd", "-o", "both.svg", "--panels", "torque_body")
     assert result.exit_code == 0, result.output
     assert drawn == [("general", 1.0), ("detumbling", 1e-3)]  # mN·m and µN·m
+
+
+def test_a_run_stopped_at_its_first_sample_is_refused_naming_the_file(cli, tmp_path):
+    """A load not finite at t = 0 keeps one sample (``X.partial.rrd``): nothing to draw over
+    time, said of that file (it blamed a --to that was not given)."""
+    (tmp_path / "nan0.toml").write_text('''
+[body]
+principal_moments = [0.010, 0.016, 0.022]
+[initial]
+omega = [1.0, 0.5, 3.0]
+[time]
+end = 1.0
+[[loads]]
+type = "expression"
+frame = "body"
+torque = ["0", "0", "sqrt(-1-t)"]
+''')
+    run = cli("run", "nan0.toml", "-o", "nan0.rrd", "-q")
+    assert run.exit_code == 1 and "the 1 valid sample is in nan0.partial.rrd" in run.stderr, run.output
+    result = cli("plot", "nan0.partial.rrd", "-o", "f.png")
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1 and not (tmp_path / "f.png").exists(), result.output
+    assert "nan0.partial.rrd: it holds the sample at t = 0 s only" in result.stderr and "--to" not in result.stderr

@@ -71,6 +71,9 @@ def plot(recordings: list[Path], output: Path, keys: list[str] | None = None, st
 
     check_output_path(output, tuple(recordings))
     runs = [_Run.read(recording, len(recordings) > 1) for recording in recordings]
+    for run in runs:
+        if not run.first < run.last:
+            raise InputError(str(run.path), f"it holds the sample at t = {run.first:g} s only: nothing to draw over time (a run stopped at its start)")
     span = _span(min(r.first for r in runs), max(r.last for r in runs), start, end)
     available: dict[str, Panel] = {}
     for run in runs:
