@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping
 from rotlab import interrupts
 from rotlab.config import load_scenario, parse_scenario
 from rotlab.config.models import Scenario
-from rotlab.errors import Interrupted, RunFailure
+from rotlab.errors import Interrupted, RunFailure, valid_samples
 from rotlab.methods.base import ProgressCallback, Settings
 from rotlab.methods.choose import Choices, choose_method
 from rotlab.methods.compile_time import compile_clock
@@ -71,7 +71,7 @@ def simulate(
     traj = run_scene(build_scene(scenario, torque=torque, frame=frame), progress=progress)
     if check and not traj.ok:
         stopped = Interrupted if traj.stats.interrupted else RunFailure
-        raise stopped(f"run stopped: {traj.stats.failure}; the {traj.t.shape[0]:,} valid sample{'s are' if traj.t.shape[0] != 1 else ' is'} in exc.trajectory", trajectory=traj)
+        raise stopped(f"run stopped: {traj.stats.failure}; {valid_samples(traj.t.shape[0], 'exc.trajectory')}", trajectory=traj)
     return traj
 
 

@@ -133,7 +133,7 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
 
     with interrupts.deferred():  # Ctrl-C while numpy, scipy, numba and rerun load: raised after, not inside them
         from rotlab import api
-        from rotlab.errors import InputError, Interrupted, RunFailure
+        from rotlab.errors import InputError, Interrupted, RunFailure, valid_samples
         from rotlab.progress import StreamProgress
         from rotlab.arrow import withhold_pandas
         from rotlab.recording.sink import LOOPBACK, LiveOptions, RecordingSink
@@ -182,7 +182,7 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
             typer.echo(line)
     if run.stats.failure:
         stopped = Interrupted if run.stats.interrupted else RunFailure
-        kept = f"; the {run.samples:,} valid sample{'s are' if run.samples != 1 else ' is'} in {final}" if final is not None else "; no sample was kept" if run.samples == 0 else ""
+        kept = f"; {valid_samples(run.samples, final)}" if final is not None else "; no sample was kept" if run.samples == 0 else ""
         raise stopped(f"{config}: run stopped: {run.stats.failure}{kept}")
 
 
@@ -378,9 +378,8 @@ def sweep(
         try:
             sweep_plan = plan(config)
             compared = compared_cases(len(sweep_plan.cases), _case_numbers(compare, len(sweep_plan.cases)))  # (before any file is made)
-            where = "--device" if device is not None else "sweep.device"  # (--device over the file's [sweep] device)
-            device = device if device is not None else sweep_plan.base.sweep.device
-            on_gpu = device_plan(sweep_plan, device, where, dask, timeout)
+            on_gpu = device_plan(sweep_plan, device, "--device", dask, timeout)  # (--device over the file's [sweep] device)
+            device = device if device is not None else sweep_plan.base.sweep.device  # (run_cases: the device decided here)
             prepare_outdir(outdir)
             exit_after_stop()
             # the results table: results.partial.csv grows as cases finish; the final files, the recording and the terminal read it

@@ -45,6 +45,11 @@ def first_line(exc: BaseException, typed: bool = False) -> str:
     return line or type(exc).__name__
 
 
+def valid_samples(count: int, where: object) -> str:
+    """"the N valid samples are in WHERE" (a stopped run's message), "sample is" for one."""
+    return f"the {count:,} valid sample{'s are' if count != 1 else ' is'} in {where}"
+
+
 class Interrupted(RunFailure):
     """The user stopped the run (Ctrl-C); what was computed is kept."""
 

@@ -254,11 +254,16 @@ def ensemble_plan_or_why(p: SweepPlan, device: str = "cpu") -> EnsemblePlan | st
     return EnsemblePlan(method.name, settings, why, device)
 
 
-def device_plan(p: SweepPlan, device: str, where: str, dask_address: str | None = None, timeout: float | None = None) -> EnsemblePlan | None:
-    """None for ``device`` "cpu"; for "cuda", the sweep's ensemble plan on the GPU; else an
-    ``InputError`` naming ``where`` (the option or key that asked) and why: not cpu or cuda, with
-    --dask or --timeout, cases the ensemble kernels do not take, no usable GPU (never a silent CPU run)."""
+def device_plan(p: SweepPlan, device: str | None, option: str, dask_address: str | None = None,
+                timeout: float | None = None) -> EnsemblePlan | None:
+    """``device`` (given as ``option``; None: the file's ``[sweep] device``): None for "cpu"; for
+    "cuda", the sweep's ensemble plan on the GPU; else an ``InputError`` naming the option or key
+    that asked and why: not cpu or cuda, with --dask or --timeout, cases the ensemble kernels do
+    not take, no usable GPU (never a silent CPU run)."""
     from rotlab.ensemble.block import gpu_unavailable
+
+    where = option if device is not None else "sweep.device"
+    device = device if device is not None else p.base.sweep.device
 
     if device not in ("cpu", "cuda"):
         raise InputError(where, f"must be cpu or cuda (got {device!r})")
@@ -387,8 +392,7 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     (``device_plan``), else ``ensemble_plan``'s; ``device``: "cpu" or "cuda" (default: the file's
     ``[sweep] device``; "cuda" runs as ``device_plan`` says, or raises its ``InputError``)."""
     if ensemble is None:
-        where = "sweep.device" if device is None else "device"
-        ensemble = device_plan(p, p.base.sweep.device if device is None else device, where, dask_address, timeout)
+        ensemble = device_plan(p, device, "device", dask_address, timeout)
     if compared is None and on_outcomes is not None:
         compared = compared_cases(len(p.cases))
     collected: list[CaseOutcome] = []
