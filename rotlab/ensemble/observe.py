@@ -22,6 +22,7 @@ where the scene has none).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -50,44 +51,69 @@ def _to_space(u0, u1, u2, u3, x, y, z):
     return (x + u0 * t1) + (u2 * t3 - u3 * t2), (y + u0 * t2) + (u3 * t1 - u1 * t3), (z + u0 * t3) + (u1 * t2 - u2 * t1)
 
 
+class Constants(NamedTuple):
+    """What ``drifts_at`` needs of ``case`` and ``shared``, read once per call of ``observe_rows``:
+    the samples' loop passes only numbers and tuples (an array passed to a compiled function
+    costs two atomic reference-count updates a call, ~70 ns a sample on the CPU)."""
+
+    moments: tuple[float, float, float]
+    rotors: tuple[float, float, float]  # h
+    up: tuple[float, float, float]
+    symmetry: tuple[float, float, float]
+    energy0: float  # H₀
+    L0: tuple[float, float, float]
+    L_space0: tuple[float, float, float]
+    L_norm0: float  # |L₀|
+    applies: tuple[bool, bool, bool, bool, bool, bool]
+
+
 @njit(cache=True, inline="always")
-def drifts_at(rows, i, norm, u0, u1, u2, u3, case, shared, applies, forces):
+def _triple(a, k):
+    return a[k], a[k + 1], a[k + 2]
+
+
+@njit(cache=True)
+def constants_of(case, shared, applies):
+    """``Constants`` of one case."""
+    return Constants(_triple(shared, SHARED_MOMENTS), _triple(shared, SHARED_ROTORS), _triple(shared, SHARED_UP),
+                     _triple(shared, SHARED_SYMMETRY), case[CASE_H0], _triple(case, CASE_L0), _triple(case, CASE_LS0),
+                     case[CASE_LNORM], (applies[0], applies[1], applies[2], applies[3], applies[4], applies[5]))
+
+
+@njit(cache=True, inline="always")
+def drifts_at(w1, w2, w3, work, potential, has_forces, norm, u0, u1, u2, u3, k):
     """|drift| × its scale of each invariant (``INVARIANTS`` order; 0 where the scene has none) at
-    the state ``rows[i]`` — the formulas of ``rotlab.invariants``, the division by the scale left
+    the state (Λ, ω, W) — the formulas of ``rotlab.invariants``, the division by the scale left
     to ``max_drifts`` (once, not once a sample: max |x|/s is max |x/s| for s > 0, bit for bit).
-    The state is indexed, not sliced (a view costs a reference count a sample); |Λ| and Λ/|Λ| given."""
-    w1, w2, w3, work = rows[i, 4], rows[i, 5], rows[i, 6], rows[i, 7]
-    l1, l2, l3 = w1 * shared[SHARED_MOMENTS], w2 * shared[SHARED_MOMENTS + 1], w3 * shared[SHARED_MOMENTS + 2]
-    scale_l = case[CASE_LNORM]
+    |Λ|, Λ/|Λ| and V = −Σ F·(R(Λ) p) (``has_forces``: the scene has forces) given; ``k``: the
+    case's ``Constants``."""
+    l1, l2, l3 = w1 * k.moments[0], w2 * k.moments[1], w3 * k.moments[2]
     energy = l_norm = l_space = l_vertical = l_symmetry = 0.0
-    if applies[0]:  # energy: T + V − W − H₀
+    if k.applies[0]:  # energy: T + V − W − H₀
         kinetic = 0.5 * (w1 * l1 + w2 * l2 + w3 * l3)  # (I ω, before h is added)
-        potential = 0.0
-        for f in range(forces.shape[0]):
-            ax, ay, az = _to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
-            potential -= ax * forces[f, F_FORCE] + ay * forces[f, F_FORCE + 1] + az * forces[f, F_FORCE + 2]
-        total = kinetic + potential if forces.shape[0] else kinetic
-        energy = abs(total - work - case[CASE_H0])
-    l1, l2, l3 = l1 + shared[SHARED_ROTORS], l2 + shared[SHARED_ROTORS + 1], l3 + shared[SHARED_ROTORS + 2]  # L = I ω + h
-    if applies[2]:  # L_norm: |L| − |L₀|
-        l_norm = abs(math.sqrt(l1 * l1 + l2 * l2 + l3 * l3) - scale_l)
-    if applies[3] or applies[4]:
+        total = kinetic + potential if has_forces else kinetic
+        energy = abs(total - work - k.energy0)
+    l1, l2, l3 = l1 + k.rotors[0], l2 + k.rotors[1], l3 + k.rotors[2]  # L = I ω + h
+    if k.applies[2]:  # L_norm: |L| − |L₀|
+        l_norm = abs(math.sqrt(l1 * l1 + l2 * l2 + l3 * l3) - k.L_norm0)
+    if k.applies[3] or k.applies[4]:
         s1, s2, s3 = _to_space(u0, u1, u2, u3, l1, l2, l3)
-        d1, d2, d3 = s1 - case[CASE_LS0], s2 - case[CASE_LS0 + 1], s3 - case[CASE_LS0 + 2]
-        if applies[3]:  # L_space: |L_space − L_space₀|
+        d1, d2, d3 = s1 - k.L_space0[0], s2 - k.L_space0[1], s3 - k.L_space0[2]
+        if k.applies[3]:  # L_space: |L_space − L_space₀|
             l_space = math.sqrt(d1 * d1 + d2 * d2 + d3 * d3)
-        if applies[4]:  # L_vertical: (L_space − L_space₀)·up
-            l_vertical = abs(d1 * shared[SHARED_UP] + d2 * shared[SHARED_UP + 1] + d3 * shared[SHARED_UP + 2])
-    if applies[5]:  # L_symmetry: (L − L₀)·e
-        k = SHARED_SYMMETRY
-        l_symmetry = abs((l1 - case[CASE_L0]) * shared[k] + (l2 - case[CASE_L0 + 1]) * shared[k + 1] + (l3 - case[CASE_L0 + 2]) * shared[k + 2])
+        if k.applies[4]:  # L_vertical: (L_space − L_space₀)·up
+            l_vertical = abs(d1 * k.up[0] + d2 * k.up[1] + d3 * k.up[2])
+    if k.applies[5]:  # L_symmetry: (L − L₀)·e
+        e = k.symmetry
+        l_symmetry = abs((l1 - k.L0[0]) * e[0] + (l2 - k.L0[1]) * e[1] + (l3 - k.L0[2]) * e[2])
     return energy, abs(norm - 1.0), l_norm, l_space, l_vertical, l_symmetry  # quaternion_norm: |Λ| − 1
 
 
 @njit(cache=True, inline="always")
-def _nutation_cosine(u0, u1, u2, u3, case):
+def _nutation_cosine(u0, u1, u2, u3, e, d):
     """cos ϑ = (R(Λ) e)·d (``rotlab.core.quaternion.projection_array``) for the unit Λ, clipped to [−1, 1]."""
-    e0, e1, e2, d0, d1, d2 = case[CASE_E], case[CASE_E + 1], case[CASE_E + 2], case[CASE_D], case[CASE_D + 1], case[CASE_D + 2]
+    e0, e1, e2 = e
+    d0, d1, d2 = d
     ed = e0 * d0 + e1 * d1 + e2 * d2
     qe = u1 * e0 + u2 * e1 + u3 * e2
     qd = u1 * d0 + u2 * d1 + u3 * d2
@@ -100,18 +126,23 @@ def _nutation_cosine(u0, u1, u2, u3, case):
 def observe_rows(times, rows, start, stop, first, case, shared, applies, forces, acc):
     """Fold samples ``start … stop − 1`` of ``rows`` (at ``times``) into ``acc``; ``first``: row
     ``start`` is the case's first sample (it opens ``acc``).  The running values are kept in
-    locals through the loop and stored once."""
+    locals through the loop and stored once; the loop reads no array but ``times``, ``rows`` and
+    ``forces`` (see ``Constants``)."""
     if first:
         acc[ACC_REVERSALS], acc[ACC_FIRST], acc[ACC_LAST], acc[ACC_MIN_COS] = 0.0, math.nan, math.nan, 1.0
-        for k in range(len(INVARIANTS)):
-            acc[ACC_DRIFT + k] = 0.0
+        for j in range(len(INVARIANTS)):
+            acc[ACC_DRIFT + j] = 0.0
+    k = constants_of(case, shared, applies)
+    a0, a1, a2 = _triple(case, CASE_FLIP)
+    e, d = _triple(case, CASE_E), _triple(case, CASE_D)
+    has_forces = forces.shape[0] > 0
     reversals, first_t, last_t, min_cos = acc[ACC_REVERSALS], acc[ACC_FIRST], acc[ACC_LAST], acc[ACC_MIN_COS]
     c_prev, t_prev = acc[ACC_PREV_C], acc[ACC_PREV_T]
     m0, m1, m2, m3, m4, m5 = (acc[ACC_DRIFT], acc[ACC_DRIFT + 1], acc[ACC_DRIFT + 2], acc[ACC_DRIFT + 3], acc[ACC_DRIFT + 4],
                               acc[ACC_DRIFT + 5])
     for i in range(start, stop):
         t = times[i]
-        c = case[CASE_FLIP] * rows[i, 4] + case[CASE_FLIP + 1] * rows[i, 5] + case[CASE_FLIP + 2] * rows[i, 6]
+        c = a0 * rows[i, 4] + a1 * rows[i, 5] + a2 * rows[i, 6]
         if not (first and i == start) and ((c > 0.0 and c_prev < 0.0) or (c < 0.0 and c_prev > 0.0)):  # (signs opposite, neither 0)
             crossing = t_prev - c_prev * (t - t_prev) / (c - c_prev)
             if reversals == 0.0:
@@ -122,8 +153,12 @@ def observe_rows(times, rows, start, stop, first, case, shared, applies, forces,
         q0, q1, q2, q3 = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3]
         norm = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)  # (``rotlab.rows.unit_rows``' order)
         u0, u1, u2, u3 = q0 / norm, q1 / norm, q2 / norm, q3 / norm
-        min_cos = min(min_cos, _nutation_cosine(u0, u1, u2, u3, case))
-        d0, d1, d2, d3, d4, d5 = drifts_at(rows, i, norm, u0, u1, u2, u3, case, shared, applies, forces)
+        min_cos = min(min_cos, _nutation_cosine(u0, u1, u2, u3, e, d))
+        potential = 0.0
+        for f in range(forces.shape[0]):  # V = −Σ F·(R(Λ) p), here and not in a function: see ``Constants``
+            ax, ay, az = _to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
+            potential -= ax * forces[f, F_FORCE] + ay * forces[f, F_FORCE + 1] + az * forces[f, F_FORCE + 2]
+        d0, d1, d2, d3, d4, d5 = drifts_at(rows[i, 4], rows[i, 5], rows[i, 6], rows[i, 7], potential, has_forces, norm, u0, u1, u2, u3, k)
         m0, m1, m2, m3, m4, m5 = max(m0, d0), max(m1, d1), max(m2, d2), max(m3, d3), max(m4, d4), max(m5, d5)
     acc[ACC_REVERSALS], acc[ACC_FIRST], acc[ACC_LAST], acc[ACC_MIN_COS] = reversals, first_t, last_t, min_cos
     acc[ACC_PREV_C], acc[ACC_PREV_T] = c_prev, t_prev
