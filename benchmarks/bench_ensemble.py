@@ -2,7 +2,7 @@
 (``rotlab.ensemble``, observables reduced as each case runs), on 1 and 2 threads, against the same
 cases each solved alone (``Method.solve``, the single run's integration, without its report).
 
-    python benchmarks/bench_ensemble.py [--cases 128] [--repeats 5]
+    python benchmarks/bench_ensemble.py [--cases 128] [--repeats 7]
 
 Problems: the free body of configs/sweep_flip.toml (20 s at 200 samples/s, ω₀ dispersed as the
 sweep disperses it) and the heavy top of configs/lagrange.toml (10 s), each case from a perturbed ω₀.
@@ -23,14 +23,13 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from bench_core import median_seconds  # (benchmarks/ is on sys.path when this file runs)
-
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.ensemble.block import run_block
 from rotlab.methods.base import Settings
 from rotlab.methods.registry import get_method
 from rotlab.scene.scene import build_scene
 
+ALONE = 16  # cases solved alone in each round
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 PROBLEMS = {  # name → (file, changes, spread of ω₀ (rad/s), per method: solver settings)
     "free body (sweep_flip)": ("sweep_flip.toml", {}, 0.05, {
@@ -61,7 +60,7 @@ def scenes_of(name: str, method: str, cases: int) -> list:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cases", type=int, default=128)
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args()
     threads = numba.get_num_threads()
     print(f"{args.cases} cases per ensemble call; numba threads available: {threads}")
@@ -75,28 +74,32 @@ def main() -> None:
             method = get_method(method_name)
             settings = Settings.of(scenes[0].scenario.solver)
             t = scenes[0].scenario.time.sample_times()
-            alone = []
-            for scene in scenes[:16]:
-                method.solve(scene, t, settings, None)
-                started = time.perf_counter()
-                method.solve(scene, t, settings, None)
-                alone.append(time.perf_counter() - started)
-            per_case_alone = float(np.median(alone))
             results = {}
 
-            def ensemble() -> None:
-                results["block"] = run_block(scenes, method, settings, t, [], 1, [None] * len(scenes))
+            def alone() -> float:
+                """Per-case seconds of the first ``ALONE`` cases, each solved alone."""
+                started = time.perf_counter()
+                for scene in scenes[:ALONE]:
+                    method.solve(scene, t, settings, None)
+                return (time.perf_counter() - started) / ALONE
 
-            per_thread = {}
-            for n in (1, min(2, threads)):
+            def ensemble(n: int) -> float:
+                """Per-case seconds of one ensemble call on ``n`` threads."""
                 numba.set_num_threads(n)
-                ensemble()  # (compiled, or loaded from the cache, before the timing)
-                per_thread[n] = median_seconds(ensemble, args.repeats) / len(scenes)
+                started = time.perf_counter()
+                results["block"] = run_block(scenes, method, settings, t, [], 1, [None] * len(scenes))
+                return (time.perf_counter() - started) / len(scenes)
+
+            two_threads = min(2, threads)
+            alone(), ensemble(1), ensemble(two_threads)  # (compiled, or loaded from the cache, before the timing)
+            rounds = np.array([(alone(), ensemble(1), ensemble(two_threads)) for _ in range(args.repeats)])  # side by side
             numba.set_num_threads(threads)
+            per_case_alone, one, two = np.median(rounds, axis=0)
+            versus_alone = float(np.median(rounds[:, 1] / rounds[:, 0]))
+            speed_up = float(np.median(rounds[:, 1] / rounds[:, 2]))
             steps = int(np.sum(results["block"].steps))
-            two = per_thread[min(2, threads)]
-            print(f"{name:28} {method_name:10} {1e3 * per_case_alone:13.3f} {1e3 * per_thread[1]:10.3f} {1e3 * two:10.3f} "
-                  f"{per_thread[1] / per_case_alone:11.2f} {per_thread[1] / two:14.2f} "
+            print(f"{name:28} {method_name:10} {1e3 * per_case_alone:13.3f} {1e3 * one:10.3f} {1e3 * two:10.3f} "
+                  f"{versus_alone:11.2f} {speed_up:14.2f} "
                   f"{steps / (two * len(scenes)) / 1e6:14.1f} {1.0 / two:9.0f}")
 
 
