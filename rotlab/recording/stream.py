@@ -2,7 +2,8 @@
 of the run's diagnostics (``build_chunk``) and go to the ``RecordingWriter`` as they come.
 
 Memory is bounded by ``FLUSH_ROWS`` (the chunk being converted) and the ``Thinned`` copy for the
-static paths, whatever the run's length.  The drifts are measured from the run's first sample
+static paths, whatever the run's length; the free heap the chunks leave is given back as the run
+goes (``rotlab.heap.HeapTrimmer``).  The drifts are measured from the run's first sample
 (``Reference``), the Euler angles unwrapped across chunks, and the maxima of the drifts kept for
 the summary.
 """
@@ -14,6 +15,7 @@ import time
 import numpy as np
 
 from rotlab import interrupts
+from rotlab.heap import HeapTrimmer
 from rotlab.methods.compile_time import CompileClock
 from rotlab.recording.writer import RecordingWriter, Thinned
 from rotlab.scene.scene import Scene
@@ -43,6 +45,7 @@ class ChunkStream:
         self.seconds = 0.0  # spent converting and sending (not compiling)
         self.events: dict = {}  # the run's events (``rotlab.events``), set when it ends
         self.flushed_at = time.monotonic()
+        self.heap = HeapTrimmer()  # the chunks' temporaries leave free pages in glibc's heap: give them back
 
     def rows(self, start: int, t: np.ndarray, state: np.ndarray) -> None:
         self.pending_t.append(t.copy())
@@ -80,6 +83,7 @@ class ChunkStream:
             self.previous_angles = chunk.euler_angles[-1].copy()
         self.written += t.shape[0]
         self.last_time = float(t[-1])
+        self.heap.trim()
         self._stopped(started)
         if self.progress is not None:
             self.progress.written(self.written, self.total)
