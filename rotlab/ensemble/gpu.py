@@ -39,7 +39,7 @@ from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK
 from rotlab.errors import first_line
 from rotlab.ensemble.kernels import dop853_case, keep_samples, report_fixed_step, report_whole
-from rotlab.ensemble.observe import ACC_COLUMNS, observe_rows
+from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 
 THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
 MEMORY_FRACTION = 0.5  # of the device's free memory, for dop853's sample grids
@@ -165,7 +165,8 @@ def _fixed_step_kernel(advance):
         for m in range(STATE_SIZE):
             y[m] = y0[b, m]
         store_row(rows, 0, y)
-        observe_rows(times, rows, 0, 1, True, case[b], shared, applies, forces, folded)
+        constants = constants_of(case[b], shared, applies)
+        observe_rows(times, rows, 0, 1, True, constants, forces, folded)
         count[0] = 0
         if keep[b] >= 0:
             keep_samples(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
@@ -175,7 +176,7 @@ def _fixed_step_kernel(advance):
             taken += done
             if code != OK or j == 1:  # non-finite (nothing stored), or the step budget cannot reach the sample
                 break
-            observe_rows(times[i - 1:i + 1], rows, 1, 2, False, case[b], shared, applies, forces, folded)
+            observe_rows(times[i - 1:i + 1], rows, 1, 2, False, constants, forces, folded)
             if keep[b] >= 0:
                 keep_samples(rows, times[i - 1:i + 1], 1, 2, i - 1, stride, kept[keep[b]], kept_t[keep[b]], count)
             store_row(rows, 0, rows[1])

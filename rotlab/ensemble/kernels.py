@@ -24,7 +24,7 @@ from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
-from rotlab.ensemble.observe import ACC_COLUMNS, observe_rows
+from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 from rotlab.core.model import Model
 
 WINDOW = 4096  # samples per fixed-step kernel call within a case
@@ -136,7 +136,8 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
         folded = np.empty(acc.shape[1])  # this case's own (a row of ``acc`` shares cache lines with its neighbours')
         rows = np.empty((min(n, WINDOW + 1), STATE_SIZE))
         store_row(rows, 0, y)
-        observe_rows(times, rows, 0, 1, True, case[b], shared, applies, forces, folded)
+        constants = constants_of(case[b], shared, applies)
+        observe_rows(times, rows, 0, 1, True, constants, forces, folded)
         count = np.zeros(1, dtype=np.int64)
         if keep[b] >= 0:
             keep_samples(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
@@ -147,7 +148,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
             taken += done
             if code != OK:
                 j = _finite_rows(rows, 1, j)
-            observe_rows(times[lo:hi], rows, 1, j, False, case[b], shared, applies, forces, folded)
+            observe_rows(times[lo:hi], rows, 1, j, False, constants, forces, folded)
             if keep[b] >= 0:
                 keep_samples(rows, times[lo:hi], 1, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
             i = lo + j
@@ -210,7 +211,7 @@ def report_whole(b, code, i, rows, times, case, shared, applies, forces, status,
     ``ACC_COLUMNS`` floats and one integer)."""
     if code != OK:
         i = _finite_rows(rows, 1, i)
-    observe_rows(times, rows, 0, i, True, case[b], shared, applies, forces, folded)
+    observe_rows(times, rows, 0, i, True, constants_of(case[b], shared, applies), forces, folded)
     store_row(acc, b, folded)
     count[0] = 0
     if keep[b] >= 0:

@@ -52,10 +52,13 @@ def _to_space(u0, u1, u2, u3, x, y, z):
 
 
 class Constants(NamedTuple):
-    """What ``drifts_at`` needs of ``case`` and ``shared``, read once per call of ``observe_rows``:
-    the samples' loop passes only numbers and tuples (an array passed to a compiled function
-    costs two atomic reference-count updates a call, ~70 ns a sample on the CPU)."""
+    """One case's ``case`` and ``shared`` inputs as numbers (``constants_of``, once per case): the
+    samples' loop passes only numbers and tuples (an array passed to a compiled function costs
+    two atomic reference-count updates a call, ~70 ns a sample on the CPU)."""
 
+    flip_axis: tuple[float, float, float]  # a
+    e: tuple[float, float, float]
+    d: tuple[float, float, float]
     moments: tuple[float, float, float]
     rotors: tuple[float, float, float]  # h
     up: tuple[float, float, float]
@@ -74,8 +77,8 @@ def _triple(a, k):
 
 @njit(cache=True)
 def constants_of(case, shared, applies):
-    """``Constants`` of one case."""
-    return Constants(_triple(shared, SHARED_MOMENTS), _triple(shared, SHARED_ROTORS), _triple(shared, SHARED_UP),
+    """``Constants`` of one case (its row of ``case``)."""
+    return Constants(_triple(case, CASE_FLIP), _triple(case, CASE_E), _triple(case, CASE_D), _triple(shared, SHARED_MOMENTS), _triple(shared, SHARED_ROTORS), _triple(shared, SHARED_UP),
                      _triple(shared, SHARED_SYMMETRY), case[CASE_H0], _triple(case, CASE_L0), _triple(case, CASE_LS0),
                      case[CASE_LNORM], (applies[0], applies[1], applies[2], applies[3], applies[4], applies[5]))
 
@@ -123,18 +126,16 @@ def _nutation_cosine(u0, u1, u2, u3, e, d):
 
 
 @njit(cache=True)
-def observe_rows(times, rows, start, stop, first, case, shared, applies, forces, acc):
+def observe_rows(times, rows, start, stop, first, k, forces, acc):
     """Fold samples ``start … stop − 1`` of ``rows`` (at ``times``) into ``acc``; ``first``: row
-    ``start`` is the case's first sample (it opens ``acc``).  The running values are kept in
-    locals through the loop and stored once; the loop reads no array but ``times``, ``rows`` and
-    ``forces`` (see ``Constants``)."""
+    ``start`` is the case's first sample (it opens ``acc``); ``k``: the case's ``Constants``.  The
+    running values are kept in locals through the loop and stored once; the loop reads no array
+    but ``times``, ``rows`` and ``forces``."""
     if first:
         acc[ACC_REVERSALS], acc[ACC_FIRST], acc[ACC_LAST], acc[ACC_MIN_COS] = 0.0, math.nan, math.nan, 1.0
         for j in range(len(INVARIANTS)):
             acc[ACC_DRIFT + j] = 0.0
-    k = constants_of(case, shared, applies)
-    a0, a1, a2 = _triple(case, CASE_FLIP)
-    e, d = _triple(case, CASE_E), _triple(case, CASE_D)
+    a0, a1, a2 = k.flip_axis
     has_forces = forces.shape[0] > 0
     reversals, first_t, last_t, min_cos = acc[ACC_REVERSALS], acc[ACC_FIRST], acc[ACC_LAST], acc[ACC_MIN_COS]
     c_prev, t_prev = acc[ACC_PREV_C], acc[ACC_PREV_T]
@@ -153,7 +154,7 @@ def observe_rows(times, rows, start, stop, first, case, shared, applies, forces,
         q0, q1, q2, q3 = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3]
         norm = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)  # (``rotlab.rows.unit_rows``' order)
         u0, u1, u2, u3 = q0 / norm, q1 / norm, q2 / norm, q3 / norm
-        min_cos = min(min_cos, _nutation_cosine(u0, u1, u2, u3, e, d))
+        min_cos = min(min_cos, _nutation_cosine(u0, u1, u2, u3, k.e, k.d))
         potential = 0.0
         for f in range(forces.shape[0]):  # V = −Σ F·(R(Λ) p), here and not in a function: see ``Constants``
             ax, ay, az = _to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
