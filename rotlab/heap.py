@@ -26,28 +26,27 @@ MMAP_THRESHOLD = 32 << 20  # bytes: larger blocks are still mapped (and unmapped
 TRIM_THRESHOLD = 64 << 20  # bytes of free heap kept before it is given back
 
 
+def _c_function(name: str, argtypes: tuple, restype):
+    """The C library's function ``name`` with its types, or None where there is none (glibc's
+    ``mallopt`` and ``malloc_trim``: not on macOS, musl or Windows)."""
+    try:
+        function = getattr(ctypes.CDLL(None), name)
+    except (OSError, AttributeError, TypeError):  # (TypeError: Windows loads no library from None)
+        return None
+    function.argtypes, function.restype = argtypes, restype
+    return function
+
+
 def keep_heap() -> bool:
     """Raise glibc's mmap and trim thresholds (module docstring).  False where the C library has
     no ``mallopt`` (not glibc) or refuses: nothing changes then."""
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
+    mallopt = _c_function("mallopt", (ctypes.c_int, ctypes.c_int), ctypes.c_int)
+    if mallopt is None:
         return False
-    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
     return bool(mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD))
 
 
 TRIM_SECONDS = 0.05  # s between two malloc_trim calls of a HeapTrimmer
-
-
-def _malloc_trim():
-    """glibc's ``malloc_trim``, or None where the C library has none."""
-    try:
-        trim = ctypes.CDLL(None).malloc_trim
-    except (OSError, AttributeError):
-        return None
-    trim.argtypes, trim.restype = (ctypes.c_size_t,), ctypes.c_int
-    return trim
 
 
 class HeapTrimmer:
@@ -55,7 +54,8 @@ class HeapTrimmer:
     the heap and whole free pages inside it), at most once every ``every`` seconds."""
 
     def __init__(self, every: float = TRIM_SECONDS) -> None:
-        self.every, self._trim, self._last = every, _malloc_trim(), time.monotonic()
+        self.every, self._last = every, time.monotonic()
+        self._trim = _c_function("malloc_trim", (ctypes.c_size_t,), ctypes.c_int)
 
     def trim(self) -> None:
         if self._trim is not None and time.monotonic() - self._last >= self.every:

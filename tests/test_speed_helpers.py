@@ -255,3 +255,16 @@ print(before - resident())
 """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert int(out.stdout) >= 56 << 20, out.stdout
+
+
+def test_the_heap_helpers_do_nothing_where_the_c_library_lacks_them(monkeypatch):
+    """On a C library without ``mallopt``/``malloc_trim`` (macOS, musl, Windows) ``keep_heap``
+    says False and ``HeapTrimmer.trim`` does nothing, instead of raising."""
+    from rotlab import heap
+
+    assert heap._c_function("rotlab_has_no_such_function", (), None) is None
+    monkeypatch.setattr(heap, "_c_function", lambda name, argtypes, restype: None)
+    assert heap.keep_heap() is False
+    trimmer = heap.HeapTrimmer(every=0.0)
+    trimmer.trim()
+    assert trimmer._trim is None
