@@ -77,11 +77,11 @@ def main() -> None:
             results = {}
 
             def alone() -> float:
-                """Per-case seconds of the first ``ALONE`` cases, each solved alone."""
+                """Per-case seconds of the first ``ALONE`` cases (or fewer), each solved alone."""
                 started = time.perf_counter()
                 for scene in scenes[:ALONE]:
                     method.solve(scene, t, settings, None)
-                return (time.perf_counter() - started) / ALONE
+                return (time.perf_counter() - started) / len(scenes[:ALONE])
 
             def ensemble(n: int) -> float:
                 """Per-case seconds of one ensemble call on ``n`` threads."""
