@@ -211,7 +211,7 @@ def record(scene: Scene, sink: RecordingSink, progress: StreamProgress | None = 
     replaced by an incomplete one).  On an error the temporary file is removed.  Returns the
     summary, the seconds spent writing and the file written (None without one, or when no sample was sent).
     ``before_close``: runs between the end of the run and the end of the stream (``--serve-web``
-    keeps serving there until Ctrl-C)."""
+    keeps serving there until Ctrl-C), unless a Ctrl-C stopped the run: one Ctrl-C ends both."""
     from rotlab.interrupts import deferred
     from rotlab.recording.writer import partial_path
 
@@ -221,7 +221,7 @@ def record(scene: Scene, sink: RecordingSink, progress: StreamProgress | None = 
         finally:
             if progress is not None:
                 progress.close()
-        if before_close is not None:
+        if before_close is not None and not run.stats.interrupted:  # (after a Ctrl-C: that one ends the stream too)
             before_close()
         if run.stats.failure and run.samples == 0:  # stopped before the first sample was sent: no file at all
             sink.abort()

@@ -317,6 +317,7 @@ def test_serve_web_serves_the_viewer_and_finishes_the_file_on_ctrl_c(tmp_path):
     grpc, web = _free_port(), _free_port()
     proc = subprocess.Popen([*ROTLAB, "run", str(CONFIGS / "lagrange.toml"), "-o", "web.rrd", "--serve-web", "--port", str(grpc),
                              "--web-port", str(web)], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    before = ""
     try:
         deadline, status = time.monotonic() + 60, None
         while time.monotonic() < deadline and status != 200:
@@ -325,14 +326,49 @@ def test_serve_web_serves_the_viewer_and_finishes_the_file_on_ctrl_c(tmp_path):
             except OSError:
                 time.sleep(0.3)
         assert status == 200
-        time.sleep(1.0)
+        while "serving the web viewer" not in before and proc.poll() is None:  # the run has ended: Ctrl-C now ends the serving
+            before += proc.stderr.readline()
     finally:
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
+        try:
+            out, err = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            raise
+    err = before + err
     assert proc.returncode == 0, err
     assert f"http://127.0.0.1:{web}/?url=rerun+http://127.0.0.1:{grpc}/proxy" in err
     verify_rrd(tmp_path / "web.rrd")
     assert read_series(tmp_path / "web.rrd", layout.QUATERNION)[0].shape[0] == 2001
+
+
+def test_one_ctrl_c_during_a_serve_web_run_stops_the_run_and_the_server(tmp_path):
+    """Ctrl-C while the run is still going (a loaded machine, a long run): the run stops, keeps its
+    valid samples in NAME.partial.rrd and the process ends; it used to go on serving until a
+    second Ctrl-C."""
+    grpc, web = _free_port(), _free_port()
+    proc = subprocess.Popen([*ROTLAB, "run", str(CONFIGS / "euler.toml"), "-o", "web.rrd", "--serve-web", "--port", str(grpc),
+                             "--web-port", str(web), "--duration", "200000", "--max-megabytes", "1e9", "-q"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not any(f.stat().st_size > 10 << 20 for f in tmp_path.glob(".web.rrd.*.tmp")):
+            time.sleep(0.1)  # until the run has written 10 MB of its ~3 GB
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            out, err = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            raise
+    assert proc.returncode == 130, err
+    assert "interrupted by the user" in err and "web.partial.rrd" in err and "serving" not in err
+    verify_rrd(tmp_path / "web.partial.rrd")
+    samples = read_series(tmp_path / "web.partial.rrd", layout.QUATERNION)[0].shape[0]
+    assert 0 < samples < 20_000_001
+    assert not (tmp_path / "web.rrd").exists()
 
 
 def test_a_killed_viewer_does_not_stop_or_stall_the_file(tmp_path):
