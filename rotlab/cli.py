@@ -88,7 +88,7 @@ def run(
     spawn: Annotated[bool, typer.Option("--spawn", help="Start a Rerun viewer and stream the run into it as it is computed.")] = False,
     connect: Annotated[bool, typer.Option("--connect", help="Stream to a running viewer (at --url).")] = False,
     url: Annotated[Optional[str], typer.Option("--url", help=f"The viewer's gRPC URL for --connect (default {DEFAULT_VIEWER_URL}).")] = None,
-    serve_web: Annotated[bool, typer.Option("--serve-web", help="Serve the web viewer (http://127.0.0.1:9090) and stream into it; waits for Ctrl-C at the end.")] = False,
+    serve_web: Annotated[bool, typer.Option("--serve-web", help="Serve the web viewer (http://127.0.0.1:9090) and stream into it; after the run it serves until Ctrl-C (a Ctrl-C during the run stops both).")] = False,
     port: Annotated[int, typer.Option("--port", min=1, max=65535, help="gRPC port of the viewer started by --spawn or the server of --serve-web.")] = 9876,
     web_port: Annotated[int, typer.Option("--web-port", min=1, max=65535, help="HTTP port of --serve-web.")] = 9090,
     bind: Annotated[str, typer.Option("--bind", help="Address --serve-web's servers (the web viewer and the run's data) listen on. The default, 127.0.0.1, is this machine only; 0.0.0.0 EXPOSES THE RUN to every machine that can reach this one.")] = "127.0.0.1",
