@@ -311,6 +311,18 @@ def test_connected_viewer_receives_the_file_sample_for_sample(tmp_path):
         np.testing.assert_array_equal(v_live, v_file)
 
 
+def _ctrl_c(proc: subprocess.Popen) -> str:
+    """Send Ctrl-C to ``proc`` and return its stderr once it has ended (killed, and the test failed,
+    if it has not within 60 s: no process is left behind)."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        return proc.communicate(timeout=60)[1]
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        raise
+
+
 def test_serve_web_serves_the_viewer_and_finishes_the_file_on_ctrl_c(tmp_path):
     import urllib.request
 
@@ -329,13 +341,7 @@ def test_serve_web_serves_the_viewer_and_finishes_the_file_on_ctrl_c(tmp_path):
         while "serving the web viewer" not in before and proc.poll() is None:  # the run has ended: Ctrl-C now ends the serving
             before += proc.stderr.readline()
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            out, err = proc.communicate(timeout=60)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.communicate()
-            raise
+        err = _ctrl_c(proc)
     err = before + err
     assert proc.returncode == 0, err
     assert f"http://127.0.0.1:{web}/?url=rerun+http://127.0.0.1:{grpc}/proxy" in err
@@ -356,13 +362,7 @@ def test_one_ctrl_c_during_a_serve_web_run_stops_the_run_and_the_server(tmp_path
         while time.monotonic() < deadline and not any(f.stat().st_size > 10 << 20 for f in tmp_path.glob(".web.rrd.*.tmp")):
             time.sleep(0.1)  # until the run has written 10 MB of its ~3 GB
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            out, err = proc.communicate(timeout=60)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.communicate()
-            raise
+        err = _ctrl_c(proc)
     assert proc.returncode == 130, err
     assert "interrupted by the user" in err and "web.partial.rrd" in err and "serving" not in err
     verify_rrd(tmp_path / "web.partial.rrd")
