@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from rotlab import invariants
+from rotlab.core.quaternion import rotate_to_space
 from rotlab.core.torques import F_FORCE, F_POINT
 
 # the invariants in the order of ``drifts_at``'s values; checked against the table at import
@@ -42,13 +43,6 @@ SHARED_MOMENTS, SHARED_UP, SHARED_SYMMETRY, SHARED_ROTORS = 0, 3, 6, 9
 SHARED_COLUMNS = 12
 ACC_REVERSALS, ACC_FIRST, ACC_LAST, ACC_PREV_C, ACC_PREV_T, ACC_MIN_COS, ACC_DRIFT = 0, 1, 2, 3, 4, 5, 6
 ACC_COLUMNS = ACC_DRIFT + len(INVARIANTS)
-
-
-@njit(cache=True, inline="always")
-def _to_space(u0, u1, u2, u3, x, y, z):
-    """R(Λ) v in ``rotlab.core.quaternion.rotate_to_space_array``'s order."""
-    t1, t2, t3 = 2.0 * (u2 * z - u3 * y), 2.0 * (u3 * x - u1 * z), 2.0 * (u1 * y - u2 * x)
-    return (x + u0 * t1) + (u2 * t3 - u3 * t2), (y + u0 * t2) + (u3 * t1 - u1 * t3), (z + u0 * t3) + (u1 * t2 - u2 * t1)
 
 
 class Constants(NamedTuple):
@@ -100,7 +94,7 @@ def drifts_at(w1, w2, w3, work, potential, has_forces, norm, u0, u1, u2, u3, k):
     if k.applies[2]:  # L_norm: |L| − |L₀|
         l_norm = abs(math.sqrt(l1 * l1 + l2 * l2 + l3 * l3) - k.L_norm0)
     if k.applies[3] or k.applies[4]:
-        s1, s2, s3 = _to_space(u0, u1, u2, u3, l1, l2, l3)
+        s1, s2, s3 = rotate_to_space(u0, u1, u2, u3, l1, l2, l3)
         d1, d2, d3 = s1 - k.L_space0[0], s2 - k.L_space0[1], s3 - k.L_space0[2]
         if k.applies[3]:  # L_space: |L_space − L_space₀|
             l_space = math.sqrt(d1 * d1 + d2 * d2 + d3 * d3)
@@ -157,7 +151,7 @@ def observe_rows(times, rows, start, stop, first, k, forces, acc):
         min_cos = min(min_cos, _nutation_cosine(u0, u1, u2, u3, k.e, k.d))
         potential = 0.0
         for f in range(forces.shape[0]):  # V = −Σ F·(R(Λ) p), here and not in a function: see ``Constants``
-            ax, ay, az = _to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
+            ax, ay, az = rotate_to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
             potential -= ax * forces[f, F_FORCE] + ay * forces[f, F_FORCE + 1] + az * forces[f, F_FORCE + 2]
         d0, d1, d2, d3, d4, d5 = drifts_at(rows[i, 4], rows[i, 5], rows[i, 6], rows[i, 7], potential, has_forces, norm, u0, u1, u2, u3, k)
         m0, m1, m2, m3, m4, m5 = max(m0, d0), max(m1, d1), max(m2, d2), max(m3, d3), max(m4, d4), max(m5, d5)
