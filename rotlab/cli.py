@@ -132,10 +132,11 @@ def _run(config: Path, output: Path | None, method: str | None, duration: float 
     import time
 
     with interrupts.deferred():  # Ctrl-C while numpy, scipy, numba and rerun load: raised after, not inside them
+        from rotlab.withheld import withhold_pandas, withhold_scipy_linalg
+        withhold_scipy_linalg()  # numba would import SciPy's linear algebra to ask about BLAS for functions we never call
         from rotlab import api
         from rotlab.errors import InputError, Interrupted, RunFailure, valid_samples
         from rotlab.progress import StreamProgress
-        from rotlab.arrow import withhold_pandas
         from rotlab.recording.sink import LOOPBACK, LiveOptions, RecordingSink
         from rotlab.recording.writer import check_output_path, check_size, partial_path
         from rotlab.scene.scene import build_scene
@@ -364,10 +365,11 @@ def sweep(
         _fail(exc)
     # the local workers start now: their imports run while this process imports and plans
     with start_workers(config, jobs) if dask is None else nullcontext() as warm:
+        from rotlab.withheld import withhold_pandas, withhold_scipy_linalg
+        withhold_scipy_linalg()  # numba would import SciPy's linear algebra to ask about BLAS for functions we never call
         from rotlab.heap import keep_heap
         from rotlab.outdir import prepare_outdir
         from rotlab.parallel import exit_after_stop
-        from rotlab.arrow import withhold_pandas
         from rotlab.sweep.recording import write_comparison
         from rotlab.sweep.report import terminal_table, write_results
         from rotlab.sweep.results import PARTIAL_RESULTS, Results, parameter_names

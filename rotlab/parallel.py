@@ -406,11 +406,12 @@ def _serve(fn: Callable[..., Any], conn: Connection, preload: tuple[str, ...], p
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent(parent)
     keep_heap()  # the tasks' NumPy temporaries reuse the heap instead of faulting in fresh pages
+    from rotlab.withheld import withhold_pandas, withhold_scipy_linalg
+
+    withhold_scipy_linalg()  # (rotlab.withheld)
     for module in preload:
         importlib.import_module(module)
-    if "pyarrow" in sys.modules:  # it writes recordings, and holds no pandas objects (rotlab.arrow)
-        from rotlab.arrow import withhold_pandas
-
+    if "pyarrow" in sys.modules:  # it writes recordings, and holds no pandas objects (rotlab.withheld)
         withhold_pandas()
     while True:
         try:
