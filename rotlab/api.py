@@ -153,7 +153,7 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
     from rotlab import compile_apart
     from rotlab.methods.stepping import RunControl, controlled, timeout_message
     from rotlab.recording.stream import ChunkStream
-    from rotlab.recording.writer import RecordingWriter
+    from rotlab.recording.writer import RecordingWriter, full_rate_chunk_rows
 
     chosen, reason, settings, t = _plan(scene, lazy_times=True)
     n = t.shape[0]
@@ -167,7 +167,7 @@ def stream_scene(scene: Scene, sink: RecordingSink, progress: StreamProgress | N
             apart = compile_apart.prepare(scene, chosen, settings, announce, deadline) if n >= compile_apart.LONG_RUN else None
         except KeyboardInterrupt:  # Ctrl-C while a child compiled the kernels (it is killed): nothing was run
             apart = compile_apart.Outcome(True, 0.0, interrupted=True)
-        writer = RecordingWriter(sink, stride=stride)
+        writer = RecordingWriter(sink, stride=stride, chunk_rows=full_rate_chunk_rows(n))
         stream = ChunkStream(scene, stats, writer, scene.scenario.output.euler_angles, progress, n, clock=compiling)
         watch = _event_watch(scene, chosen, t, settings)
         control = RunControl(consumer=stream, deadline=deadline, timeout=timeout, watch=watch)

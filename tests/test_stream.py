@@ -98,22 +98,73 @@ def test_visual_samples_are_collected_into_few_chunks(tmp_path, monkeypatch):
     """The visual series of a long run go out in chunks of up to VISUAL_ROWS samples, not one per
     flush: Rerun keeps an entry per chunk in memory until the file's footer (a 10⁸-sample run held
     ~60 MB more when ~25 visual entities were sent with every flush).  Here ~21 flushes, and the
-    visual samples (every 21st) arrive in one chunk per entity; the state in one per flush."""
+    visual samples (every 21st) arrive in one chunk per entity; the state (2,001 rows, fewer than
+    CHUNK_ROWS) in one too."""
     from rerun.chunk import RrdReader
 
     from rotlab.recording import writer as writer_module
 
-    monkeypatch.setattr(writer_module, "VISUAL_SECONDS", 1e9)  # only the row count (or the end) sends them
+    monkeypatch.setattr(writer_module, "SEND_SECONDS", 1e9)  # only the row count (or the end) sends them
     scenario = rotlab.load(CONFIGS / "lagrange.toml", duration=10.0)  # 2001 samples
     scenario = scenario.model_copy(update={"output": scenario.output.model_copy(update={"visual_samples": 100})})
     _streamed(scenario, tmp_path / "s.rrd", monkeypatch)
     chunks: dict[str, int] = {}
     for chunk in RrdReader(str(tmp_path / "s.rrd")).stream().filter(is_static=False).to_chunks():
         chunks[str(chunk.entity_path)] = chunks.get(str(chunk.entity_path), 0) + 1
-    assert chunks[layout.QUATERNION] >= 20  # sent with every flush (windows of 96 rows)
+    assert chunks[layout.QUATERNION] == 1 and chunks[f"{layout.INVARIANTS}/energy"] == 1
     assert chunks[layout.BODY] == 1 and chunks[f"{layout.INVARIANTS_LOG}/energy"] == 1
     t_pose, _ = read_series(tmp_path / "s.rrd", layout.BODY, "Transform3D:quaternion")
     assert t_pose.shape[0] == -(-2001 // 21)
+
+
+@pytest.mark.parametrize("long_run, chunks", [(2001, [500, 500, 500, 500, 1]), (2000, [700, 700, 601])])
+def test_state_goes_out_in_whole_chunks_of_chunk_rows(long_run, chunks, tmp_path, monkeypatch):
+    """Flushes of 61 rows are collected into full-rate chunks of CHUNK_ROWS (here 500) rows, or
+    LONG_CHUNK_ROWS (700) in a run longer than LONG_RUN samples, the last one shorter; the file
+    holds every sample, bit for bit those of the run written whole."""
+    from rerun.chunk import RrdReader
+
+    from rotlab.recording import writer as writer_module
+
+    monkeypatch.setattr(writer_module, "CHUNK_ROWS", 500)
+    monkeypatch.setattr(writer_module, "LONG_CHUNK_ROWS", 700)
+    monkeypatch.setattr(writer_module, "LONG_RUN", long_run)
+    monkeypatch.setattr(stepping, "WINDOW", 97)  # (the adaptive steps end at each window's last sample: the same windows in both runs)
+    scenario = rotlab.load(CONFIGS / "general.toml", duration=10.0)  # 2001 samples
+    whole = rotlab.simulate(scenario)
+    _streamed(scenario, tmp_path / "s.rrd", monkeypatch)
+    rows: dict[str, list[int]] = {}
+    for chunk in RrdReader(str(tmp_path / "s.rrd")).stream().filter(is_static=False).to_chunks():
+        rows.setdefault(str(chunk.entity_path), []).append(chunk.num_rows)
+    for entity in (layout.QUATERNION, layout.OMEGA, layout.WORK, f"{layout.INVARIANTS}/energy"):
+        assert rows[entity] == chunks, entity
+    _, q = read_series(tmp_path / "s.rrd", layout.QUATERNION)
+    _, work = read_series(tmp_path / "s.rrd", layout.WORK)
+    np.testing.assert_array_equal(q, whole.quaternion)
+    np.testing.assert_array_equal(work[:, 0], whole.work)
+
+
+def test_live_viewers_get_the_state_at_least_every_send_seconds(tmp_path, monkeypatch):
+    """With a live viewer the collected rows go out on time, not only when CHUNK_ROWS have come
+    (here every flush: SEND_SECONDS = 0); a file alone waits for whole chunks."""
+    from rerun.chunk import RrdReader
+
+    from rotlab.recording import writer as writer_module
+    from rotlab.recording.sink import LiveOptions
+
+    monkeypatch.setattr(writer_module, "SEND_SECONDS", 0.0)
+    monkeypatch.setattr(stepping, "WINDOW", 97)
+    monkeypatch.setattr(stream_module, "FLUSH_ROWS", 61)
+    scenario = rotlab.load(CONFIGS / "lagrange.toml", duration=3.0)  # 601 samples
+    rows: dict[bool, list[int]] = {}
+    for live in (False, True):
+        sink = RecordingSink(tmp_path / f"{live}.rrd")
+        sink.live = LiveOptions(spawn=live)  # only whether a viewer watches: the file gets the same chunks
+        api.record(build_scene(scenario), sink)
+        chunks = RrdReader(str(tmp_path / f"{live}.rrd")).stream().filter(is_static=False).to_chunks()
+        rows[live] = [chunk.num_rows for chunk in chunks if str(chunk.entity_path) == layout.QUATERNION]
+    assert rows[False] == [601]
+    assert len(rows[True]) >= 6 and max(rows[True]) <= 98 and sum(rows[True]) == 601  # one chunk a flush (a window of 97)
 
 
 def test_sample_times_equal_linspace():

@@ -34,6 +34,8 @@ class _WidgetSink:
     def drain(self) -> None:
         return None
 
+    watched = False  # the widget gets the recording whole
+
 
 def show(traj: Trajectory, width: int | None = None, height: int | None = None):
     """A ``rerun.notebook.Viewer`` of ``traj`` (the cell's output when it is the last expression)."""

@@ -382,6 +382,11 @@ class RecordingSink:
         self.check()
 
     @property
+    def watched(self) -> bool:
+        """Do live viewers take the run as it goes (then the writer sends what it collects often)?"""
+        return self.live.any
+
+    @property
     def live_problem(self) -> str | None:
         """Why the live viewers stopped receiving the run (None while they keep up)."""
         return None if self._feed is None else self._feed.given_up

@@ -21,7 +21,7 @@ from rotlab.recording.writer import RecordingWriter, Thinned
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import Reference, RunStats, RunSummary, build_chunk, reference_of
 
-FLUSH_ROWS = 1 << 14  # rows converted and sent together (= writer.CHUNK_ROWS)
+FLUSH_ROWS = 1 << 14  # rows converted together (the writer sends the state in chunks of writer.full_rate_chunk_rows)
 FLUSH_SECONDS = 0.5  # ... or whatever has come in this long: a slow run is seen (and kept) as it goes
 
 
@@ -94,6 +94,8 @@ class ChunkStream:
     def finish(self) -> RunSummary:
         """Send what is pending, then the static part from the thinned run; returns the summary."""
         self.flush()
+        with interrupts.deferred():  # the writer's collected full-rate rows are counted in ``written``: sent whole
+            self.writer.send_full_rate()
         started = self._started()
         summary = self.summary()
         t, state = self.thinned.arrays()

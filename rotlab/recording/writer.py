@@ -3,16 +3,22 @@ sample) through one ``RecordingSink`` (``rotlab.recording.sink``: checked writes
 file, atomic rename, live viewers).
 
 ``RecordingWriter`` takes a run chunk by chunk (``write``) as it is produced, so a streamed run
-holds only the current chunk.  The state and the invariants (``full_rate``) are written at every
-sample; the derived and visual series (pose, arrows, axis tip, log drifts, |Λ| − 1, Euler angles,
-L in space) at every ``stride``-th sample, collected until ``VISUAL_ROWS`` of them or ``VISUAL_SECONDS``
-have passed: every ``send_columns`` is one chunk in the file, and Rerun holds memory per chunk
-until the end of the file, so sending the many visual entities with every full-rate flush would
-leave a long run with a great many tiny chunks and a higher memory peak; collecting fewer rows
-than a full-rate chunk keeps their conversion's transient memory small.  The static
-part is written twice: at the start (so that a live viewer has the body and the layout at once)
-and at the end, from a thinned copy of the run (``Thinned``: at most MAX_PATH_POINTS samples)
-for the paths and the run report.
+holds only the current chunk and what it collects.  Every ``send_columns`` is one chunk in the
+file, and Rerun's file encoder keeps ~2 kB per chunk sent (the footer's manifest) until the file
+ends, and builds the footer from it then: a run's chunk count sets its last memory peak (10⁸
+samples in chunks of 16,384 rows: ~28,000 chunks, ~60 MB).  So each part is collected into
+chunks of many rows before it is sent, and, while live viewers watch, sent at least every
+``SEND_SECONDS`` (they keep up):
+
+* the state and the invariants (``full_rate``), at every sample: ``full_rate_chunk_rows`` rows
+  a chunk (their columns alone are collected: ~80 B a row);
+* the derived and visual series (pose, arrows, axis tip, log drifts, |Λ| − 1, Euler angles, L in
+  space), at every ``stride``-th sample: ``VISUAL_ROWS`` rows a chunk, fewer, since their
+  conversion (labels, geometry) holds far more per row.
+
+The static part is written twice: at the start (so that a live viewer has the body and the
+layout at once) and at the end, from a thinned copy of the run (``Thinned``: at most
+MAX_PATH_POINTS samples) for the paths and the run report.
 """
 
 from __future__ import annotations
@@ -40,9 +46,11 @@ from rotlab.recording.sink import RecordingSink
 from rotlab.events import EventLog
 from rotlab.trajectory import RunSummary, Trajectory, concatenate
 
-CHUNK_ROWS = 16384  # rows per send_columns call: enough that Rerun's fixed cost per call is spread thin
+CHUNK_ROWS = 1 << 14  # full-rate rows per chunk (send_columns call): Rerun's fixed cost per call spread thin
+LONG_CHUNK_ROWS = 1 << 16  # ... in a run of more than LONG_RUN samples (``full_rate_chunk_rows``)
+LONG_RUN = 30_000_000  # samples
 VISUAL_ROWS = 4096  # visual rows converted and sent together: their conversion (labels, geometry) holds far more per row than the state's
-VISUAL_SECONDS = 0.5  # collected visual rows are sent at least this often (a live viewer keeps up)
+SEND_SECONDS = 0.5  # collected rows are sent at least this often (a live viewer keeps up)
 LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
 FULL_RATE = (layout.QUATERNION, layout.OMEGA, layout.WORK, layout.ROTOR_MOMENTUM)  # every sample: the state, and the invariants' drifts (``full_rate``)
 
@@ -119,12 +127,20 @@ def _printable(path: Path) -> bool:
     return str(path).isprintable()
 
 
+def full_rate_chunk_rows(samples: int) -> int:
+    """Full-rate rows per chunk in a run of ``samples``.  Fewer, larger chunks leave Rerun less
+    to keep per chunk (the footer's manifest), but a larger chunk in flight holds more at once:
+    16,384-row chunks peak lower up to ~2·10⁷ samples (283 against 292 MB), 65,536-row chunks at
+    10⁸ (298 against 314 MB; docs/benchmarks.md, "Streaming")."""
+    return LONG_CHUNK_ROWS if samples > LONG_RUN else CHUNK_ROWS
+
+
 def partial_path(path: Path) -> Path:
     """Where the valid part of an incomplete run goes: ``name.partial.rrd`` beside ``path``."""
     return path.with_name(f"{path.stem}.partial{path.suffix or '.rrd'}")
 
 
-def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_ROWS) -> Path:
+def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int | None = None) -> Path:
     """Write a whole ``traj`` to ``path`` atomically (every series at every sample); returns the path."""
     path = Path(path)
     check_output_path(path)
@@ -147,14 +163,17 @@ def write_recording(traj: Trajectory, path: str | Path, chunk_rows: int = CHUNK_
 class RecordingWriter:
     """Writes consecutive chunks of one run (``Trajectory`` objects of successive samples)."""
 
-    def __init__(self, sink: RecordingSink, stride: int = 1, chunk_rows: int = CHUNK_ROWS) -> None:
+    def __init__(self, sink: RecordingSink, stride: int = 1, chunk_rows: int | None = None) -> None:
+        chunk_rows = CHUNK_ROWS if chunk_rows is None else chunk_rows
         self.sink, self.rec, self.stride, self.chunk_rows = sink, sink.rec, max(1, int(stride)), chunk_rows
         self.scales: Scales | None = None  # fixed by the first chunk
         self.energy: tuple[float, float] | None = None
+        self.full = FullRateRows(chunk_rows)  # full-rate samples not sent yet
         self.visual: list[Trajectory] = []  # visual samples not sent yet
         self.visual_rows = 0
         self.visual_chunk_rows = min(chunk_rows, VISUAL_ROWS)
-        self.visual_sent_at = time.monotonic()
+        self.send_seconds = SEND_SECONDS if sink.watched else math.inf  # a file alone: whole chunks only
+        self.sent_at = time.monotonic()
 
     def _start(self, first: Trajectory) -> None:
         """Blueprint and static styling from the first chunk (a live viewer shows them at once)."""
@@ -172,27 +191,58 @@ class RecordingWriter:
         with np.errstate(over="ignore", invalid="ignore"):  # display-only float32 casts of a run that blew up
             if self.scales is None:
                 self._start(chunk)
-            _write_full_rate(self.rec, chunk, self.chunk_rows)
+            self._collect_full_rate(chunk)
             picked = np.arange((-start) % self.stride, chunk.t.shape[0], self.stride)
             if picked.size:
                 self.visual.append(chunk if self.stride == 1 else chunk.take(picked))
                 self.visual_rows += picked.size
-            if self.visual_rows >= self.visual_chunk_rows or time.monotonic() - self.visual_sent_at >= VISUAL_SECONDS:
+            due = time.monotonic() - self.sent_at >= self.send_seconds
+            if due:
+                self.send_full_rate()
+            if due or self.visual_rows >= self.visual_chunk_rows:
                 self._send_visual()
+            if due:
+                self.sent_at = time.monotonic()
         self.sink.drain()
+
+    def _collect_full_rate(self, chunk: Trajectory) -> None:
+        """Add ``chunk``'s full-rate samples; whole full-rate chunks go out as they fill (rows that
+        make a whole chunk by themselves go out without being copied)."""
+        series, n, taken = full_rate_series(chunk), chunk.t.shape[0], 0
+        while taken < n:
+            if not self.full.count and n - taken >= self.chunk_rows:
+                rows = slice(taken, taken + self.chunk_rows)
+                self._send(chunk.t[rows], {entity: values[rows] for entity, values in series.items()})
+                taken += self.chunk_rows
+                continue
+            taken += self.full.add(chunk.t[taken:], {entity: values[taken:] for entity, values in series.items()})
+            if self.full.is_full:
+                self.send_full_rate()
+
+    def send_full_rate(self) -> None:
+        """Send the collected full-rate samples."""
+        if self.full.count:
+            self._send(*self.full.taken())
+
+    def _send(self, t: np.ndarray, series: dict[str, np.ndarray]) -> None:
+        """One chunk per entity; long chunks (``LONG_CHUNK_ROWS``) each encoded before the next is
+        sent (``drain``: Rerun holds one at a time; for the short ones that wait costs more time
+        than it saves memory)."""
+        _write_full_rate(self.rec, t, series, drain=self.sink.drain if self.chunk_rows > CHUNK_ROWS else None)
 
     def _send_visual(self) -> None:
         """Send the collected visual samples (one chunk per entity per ``VISUAL_ROWS``)."""
         if self.visual:
             thin = concatenate(self.visual)
             _write_visual(self.rec, thin, _views(thin, self.scales), self.visual_chunk_rows)
-        self.visual, self.visual_rows, self.visual_sent_at = [], 0, time.monotonic()
+        self.visual, self.visual_rows = [], 0
 
     def finish(self, summary: RunSummary, thinned: Trajectory | None) -> None:
-        """The visual samples still collected, then the static part again, from the whole run:
-        paths, Poinsot construction, run report."""
+        """The samples still collected, then the static part again, from the whole run: paths,
+        Poinsot construction, run report."""
         self.sink.check()
         with np.errstate(over="ignore", invalid="ignore"):
+            self.send_full_rate()
             self._send_visual()
         if thinned is None or not thinned.t.shape[0]:
             return
@@ -348,19 +398,58 @@ def full_rate(entity: str) -> bool:
     return parent == layout.INVARIANTS and name not in invariants.THINNED
 
 
-def _write_full_rate(rec: rr.RecordingStream, traj: Trajectory, chunk_rows: int) -> None:
-    """The ``full_rate`` series (state and drifts), every sample of ``traj``."""
-    ns = _nanoseconds(traj.t)
+def full_rate_series(traj: Trajectory) -> dict[str, np.ndarray]:
+    """The ``full_rate`` series of ``traj`` (state and drifts): entity → (N, k) values."""
     full = {layout.QUATERNION: traj.quaternion, layout.OMEGA: traj.omega}
     if traj.work is not None:
         full[layout.WORK] = traj.work[:, None]
     if traj.rotor_momenta is not None:
         full[layout.ROTOR_MOMENTUM] = traj.rotor_momenta
     full.update({entity: drift[:, None] for name, drift in traj.invariants.items() if full_rate(entity := f"{layout.INVARIANTS}/{name}")})
-    for rows in _slices(traj.t.shape[0], chunk_rows):
-        index = [rr.TimeColumn(layout.TIMELINE, duration=ns[rows])]
-        for entity, values in full.items():
-            rec.send_columns(entity, index, rr.Scalars.columns(scalars=values[rows]))
+    return full
+
+
+class FullRateRows:
+    """Up to ``rows`` samples of the ``full_rate`` series, copied into columns allocated once (no
+    per-flush copies held, nothing concatenated)."""
+
+    def __init__(self, rows: int) -> None:
+        self.rows, self.count = rows, 0
+        self.t: np.ndarray | None = None
+        self.values: dict[str, np.ndarray] = {}
+
+    @property
+    def is_full(self) -> bool:
+        return self.count == self.rows
+
+    def add(self, t: np.ndarray, series: dict[str, np.ndarray]) -> int:
+        """Copy the first rows of ``t`` and ``series`` that fit; returns how many."""
+        if self.t is None:
+            self.t = np.empty(self.rows)
+            self.values = {entity: np.empty((self.rows, values.shape[1])) for entity, values in series.items()}
+        n = min(t.shape[0], self.rows - self.count)
+        rows = slice(self.count, self.count + n)
+        self.t[rows] = t[:n]
+        for entity, values in series.items():
+            self.values[entity][rows] = values[:n]
+        self.count += n
+        return n
+
+    def taken(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """The collected samples (views, valid until the next ``add``); empties the collection."""
+        assert self.t is not None
+        n, self.count = self.count, 0
+        return self.t[:n], {entity: values[:n] for entity, values in self.values.items()}
+
+
+def _write_full_rate(rec: rr.RecordingStream, t: np.ndarray, full: dict[str, np.ndarray], drain=None) -> None:
+    """The ``full_rate`` series ``full`` (``full_rate_series``) at the times ``t``: one chunk per
+    entity, ``drain()`` after each when given."""
+    index = [rr.TimeColumn(layout.TIMELINE, duration=_nanoseconds(t))]
+    for entity, values in full.items():
+        rec.send_columns(entity, index, rr.Scalars.columns(scalars=values))
+        if drain is not None:
+            drain()
 
 
 def _write_visual(rec: rr.RecordingStream, traj: Trajectory, views: _Views, chunk_rows: int) -> None:
