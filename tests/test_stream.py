@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import rerun as rr
 
 import rotlab
 from rotlab import api
@@ -142,6 +143,44 @@ def test_state_goes_out_in_whole_chunks_of_chunk_rows(long_run, chunks, tmp_path
     _, work = read_series(tmp_path / "s.rrd", layout.WORK)
     np.testing.assert_array_equal(q, whole.quaternion)
     np.testing.assert_array_equal(work[:, 0], whole.work)
+
+
+def test_rerun_encodes_the_numpy_memory_it_is_given_later(tmp_path):
+    """Why the collected columns are never reused: ``send_columns`` keeps the NumPy memory, no
+    copy, and encodes it later on its own thread, so memory written again after the call reaches
+    the file (here every value of five 200,000-row chunks overwritten at once)."""
+    from rerun.chunk import RrdReader
+
+    rec = rr.RecordingStream("zero-copy")
+    rec.save(str(tmp_path / "z.rrd"))
+    values = np.arange(800_000, dtype=float).reshape(200_000, 4)
+    ns = np.arange(200_000).astype("timedelta64[ns]")
+    for k in range(5):
+        rec.send_columns("/x", [rr.TimeColumn("time", duration=ns + k * 200_000)], rr.Scalars.columns(scalars=values))
+        values[:] = -1.0
+    rec.flush()
+    rec.disconnect()
+    written = [chunk.to_record_batch().column("Scalars:scalars").flatten().to_numpy() for chunk in
+               RrdReader(str(tmp_path / "z.rrd")).stream().filter(is_static=False).to_chunks()]
+    assert np.any(np.concatenate(written) == -1.0)
+
+
+def test_collected_columns_handed_out_are_never_written_again():
+    """``FullRateRows``: what ``taken`` returns keeps its values through the next ``add``s."""
+    from rotlab.recording.writer import FullRateRows
+
+    rows = FullRateRows(500)
+    t = np.arange(700.0)
+    q = np.arange(2800.0).reshape(700, 4)
+    assert rows.add(t, {"q": q}) == 500 and rows.is_full
+    t1, v1 = rows.taken()
+    assert rows.add(t[500:], {"q": q[500:]}) == 200 and not rows.is_full
+    assert not np.shares_memory(t1, rows.t) and not np.shares_memory(v1["q"], rows.values["q"])
+    np.testing.assert_array_equal(t1, t[:500])
+    np.testing.assert_array_equal(v1["q"], q[:500])
+    t2, v2 = rows.taken()
+    np.testing.assert_array_equal(t2, t[500:])
+    np.testing.assert_array_equal(v2["q"], q[500:])
 
 
 def test_live_viewers_get_the_state_at_least_every_send_seconds(tmp_path, monkeypatch):

@@ -410,8 +410,10 @@ def full_rate_series(traj: Trajectory) -> dict[str, np.ndarray]:
 
 
 class FullRateRows:
-    """Up to ``rows`` samples of the ``full_rate`` series, copied into columns allocated once (no
-    per-flush copies held, nothing concatenated)."""
+    """Up to ``rows`` samples of the ``full_rate`` series, copied into columns allocated once per
+    chunk (no per-flush copies held, nothing concatenated).  Columns handed out (``taken``) are
+    never written again: Rerun keeps the NumPy memory it is given, without a copy, until it has
+    encoded the chunk, on another thread."""
 
     def __init__(self, rows: int) -> None:
         self.rows, self.count = rows, 0
@@ -436,10 +438,11 @@ class FullRateRows:
         return n
 
     def taken(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """The collected samples (views, valid until the next ``add``); empties the collection."""
+        """The collected samples; the next ``add`` starts new columns."""
         assert self.t is not None
-        n, self.count = self.count, 0
-        return self.t[:n], {entity: values[:n] for entity, values in self.values.items()}
+        n, t, values = self.count, self.t, self.values
+        self.count, self.t, self.values = 0, None, {}
+        return t[:n], {entity: column[:n] for entity, column in values.items()}
 
 
 def _write_full_rate(rec: rr.RecordingStream, t: np.ndarray, full: dict[str, np.ndarray], drain=None) -> None:
