@@ -616,6 +616,26 @@ def test_ctrl_c_while_a_chunk_is_written_keeps_that_chunk_whole(tmp_path, monkey
     assert len(calls) == 2 and t.shape[0] == run.samples >= 100 and np.all(np.isfinite(q))
 
 
+def test_ctrl_c_as_the_run_ends_keeps_every_sample_it_reports(tmp_path, monkeypatch):
+    """A Ctrl-C that lands as the last rows are converted, while the writer still collects
+    full-rate rows it has counted (a run shorter than a chunk: all of them), is held until those
+    rows are sent: the partial file holds exactly the samples the run reports."""
+    original = stream_module.ChunkStream.flush
+
+    def flush_then_interrupted(self):
+        original(self)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(stream_module.ChunkStream, "flush", flush_then_interrupted)
+    monkeypatch.setattr(stream_module, "FLUSH_ROWS", 1 << 30)  # one flush: the one that ends the run
+    monkeypatch.setattr(stream_module, "FLUSH_SECONDS", 1e9)
+    scenario = rotlab.load(CONFIGS / "euler.toml", method="rk4", duration=5.0)  # 1,001 samples
+    run, _, final = api.record(build_scene(scenario), RecordingSink(tmp_path / "out.rrd"))
+    assert run.stats.interrupted and final == tmp_path / "out.partial.rrd"
+    t, q = read_series(final, layout.QUATERNION)
+    assert t.shape[0] == run.samples == scenario.time.sample_count and np.all(np.isfinite(q))
+
+
 def test_a_compile_inside_the_writer_is_reported_as_compiling_not_writing(tmp_path, monkeypatch):
     """The summary's parts (integration, compiling, writing) do not overlap: numba compiling a
     kernel while the writer runs (the load views' on a first run) is compile time, not writing."""

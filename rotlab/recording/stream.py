@@ -93,8 +93,8 @@ class ChunkStream:
 
     def finish(self) -> RunSummary:
         """Send what is pending, then the static part from the thinned run; returns the summary."""
-        self.flush()
-        with interrupts.deferred():  # the writer's collected full-rate rows are counted in ``written``: sent whole
+        with interrupts.deferred():  # the pending rows and the writer's collected ones (counted in ``written``) go out whole
+            self.flush()
             self.writer.send_full_rate()
         started = self._started()
         summary = self.summary()
