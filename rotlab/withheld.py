@@ -70,8 +70,10 @@ class _NoBlasProbe:
 
 
 def _leave(finder: object) -> None:
+    """Take ``finder`` out of ``sys.meta_path`` by replacing the list: importlib may be walking
+    the old one now (removing from it would skip the next finder for this import)."""
     if finder in sys.meta_path:
-        sys.meta_path.remove(finder)
+        sys.meta_path = [other for other in sys.meta_path if other is not finder]
 
 
 def withhold_scipy_linalg() -> bool:

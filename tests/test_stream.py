@@ -145,28 +145,9 @@ def test_state_goes_out_in_whole_chunks_of_chunk_rows(long_run, chunks, tmp_path
     np.testing.assert_array_equal(work[:, 0], whole.work)
 
 
-def test_rerun_encodes_the_numpy_memory_it_is_given_later(tmp_path):
-    """Why the collected columns are never reused: ``send_columns`` keeps the NumPy memory, no
-    copy, and encodes it later on its own thread, so memory written again after the call reaches
-    the file (here every value of five 200,000-row chunks overwritten at once)."""
-    from rerun.chunk import RrdReader
-
-    rec = rr.RecordingStream("zero-copy")
-    rec.save(str(tmp_path / "z.rrd"))
-    values = np.arange(800_000, dtype=float).reshape(200_000, 4)
-    ns = np.arange(200_000).astype("timedelta64[ns]")
-    for k in range(5):
-        rec.send_columns("/x", [rr.TimeColumn("time", duration=ns + k * 200_000)], rr.Scalars.columns(scalars=values))
-        values[:] = -1.0
-    rec.flush()
-    rec.disconnect()
-    written = [chunk.to_record_batch().column("Scalars:scalars").flatten().to_numpy() for chunk in
-               RrdReader(str(tmp_path / "z.rrd")).stream().filter(is_static=False).to_chunks()]
-    assert np.any(np.concatenate(written) == -1.0)
-
-
 def test_collected_columns_handed_out_are_never_written_again():
-    """``FullRateRows``: what ``taken`` returns keeps its values through the next ``add``s."""
+    """``FullRateRows``: what ``taken`` returns belongs to the caller, its values kept through the
+    next ``add``s."""
     from rotlab.recording.writer import FullRateRows
 
     rows = FullRateRows(500)

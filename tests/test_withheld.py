@@ -109,15 +109,25 @@ def test_numba_without_its_blas_probe_still_does_linear_algebra():
 
 
 def test_scipy_linalg_imported_first_is_not_withheld():
-    """An import of ``scipy.linalg`` before numba's probe proceeds, and the finder leaves."""
+    """An import of ``scipy.linalg`` before numba's probe proceeds, and the finder leaves without
+    hiding that import from the finders after it."""
     out = _python("""
         import sys
         from rotlab.withheld import withhold_scipy_linalg, _NoBlasProbe
         print(withhold_scipy_linalg())
+
+        class Seen:
+            names = []
+
+            def find_spec(self, name, path=None, target=None):
+                self.names.append(name)
+
+        sys.meta_path.insert(1, Seen())
         import scipy.linalg
         print(scipy.linalg.det([[2.0, 0.0], [0.0, 3.0]]), any(isinstance(f, _NoBlasProbe) for f in sys.meta_path))
+        print("scipy.linalg" in Seen.names)
     """)
-    assert out.split("\n")[:2] == ["True", "6.0 False"]
+    assert out.split("\n")[:3] == ["True", "6.0 False", "True"]
 
 
 def test_rotlab_sweep_imports_no_pandas(tmp_path):

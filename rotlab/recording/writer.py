@@ -411,9 +411,10 @@ def full_rate_series(traj: Trajectory) -> dict[str, np.ndarray]:
 
 class FullRateRows:
     """Up to ``rows`` samples of the ``full_rate`` series, copied into columns allocated once per
-    chunk (no per-flush copies held, nothing concatenated).  Columns handed out (``taken``) are
-    never written again: Rerun keeps the NumPy memory it is given, without a copy, until it has
-    encoded the chunk, on another thread."""
+    chunk (no per-flush copies held, nothing concatenated).  The columns handed out (``taken``)
+    belong to the caller from then on: they are never written again, whatever holds them (Rerun
+    0.41's ``Scalars.columns`` and ``TimeColumn`` copy what they are given, measured; nothing in
+    its API promises it)."""
 
     def __init__(self, rows: int) -> None:
         self.rows, self.count = rows, 0
