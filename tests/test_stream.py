@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import rerun as rr
 
 import rotlab
 from rotlab import api
