@@ -50,7 +50,7 @@ CHUNK_ROWS = 1 << 14  # full-rate rows per chunk (send_columns call): Rerun's fi
 LONG_CHUNK_ROWS = 1 << 16  # ... in a run of more than LONG_RUN samples (``full_rate_chunk_rows``)
 LONG_RUN = 30_000_000  # samples
 VISUAL_ROWS = 4096  # visual rows converted and sent together: their conversion (labels, geometry) holds far more per row than the state's
-SEND_SECONDS = 0.5  # collected rows are sent at least this often (a live viewer keeps up)
+SEND_SECONDS = 0.5  # while live viewers watch, collected rows are sent at least this often (they keep up)
 LOG_FLOOR = 1e-17  # log10 of a zero drift is drawn at −17 (below double precision)
 FULL_RATE = (layout.QUATERNION, layout.OMEGA, layout.WORK, layout.ROTOR_MOMENTUM)  # every sample: the state, and the invariants' drifts (``full_rate``)
 
@@ -196,13 +196,12 @@ class RecordingWriter:
             if picked.size:
                 self.visual.append(chunk if self.stride == 1 else chunk.take(picked))
                 self.visual_rows += picked.size
-            due = time.monotonic() - self.sent_at >= self.send_seconds
-            if due:
+            if time.monotonic() - self.sent_at >= self.send_seconds:  # live viewers: all that is collected goes out
                 self.send_full_rate()
-            if due or self.visual_rows >= self.visual_chunk_rows:
                 self._send_visual()
-            if due:
                 self.sent_at = time.monotonic()
+            elif self.visual_rows >= self.visual_chunk_rows:
+                self._send_visual()
         self.sink.drain()
 
     def _collect_full_rate(self, chunk: Trajectory) -> None:
@@ -210,14 +209,16 @@ class RecordingWriter:
         make a whole chunk by themselves go out without being copied)."""
         series, n, taken = full_rate_series(chunk), chunk.t.shape[0], 0
         while taken < n:
-            if not self.full.count and n - taken >= self.chunk_rows:
-                rows = slice(taken, taken + self.chunk_rows)
-                self._send(chunk.t[rows], {entity: values[rows] for entity, values in series.items()})
+            whole = not self.full.count and n - taken >= self.chunk_rows
+            rows = slice(taken, taken + self.chunk_rows if whole else n)
+            part = {entity: values[rows] for entity, values in series.items()}
+            if whole:
+                self._send(chunk.t[rows], part)
                 taken += self.chunk_rows
-                continue
-            taken += self.full.add(chunk.t[taken:], {entity: values[taken:] for entity, values in series.items()})
-            if self.full.is_full:
-                self.send_full_rate()
+            else:
+                taken += self.full.add(chunk.t[rows], part)
+                if self.full.is_full:
+                    self.send_full_rate()
 
     def send_full_rate(self) -> None:
         """Send the collected full-rate samples."""
