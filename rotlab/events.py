@@ -14,7 +14,7 @@ its root is found by Brent's method on
 
 Φ the method's local solution (``Method.local_solution``: the run's own steps from the sample
 y_k, so that Φ(y_k, t_k, t_{k+1}) is the run's next sample; the closed form for ``exact``), to
-|δτ| ≤ ``TIME_RTOL`` · max(|t_k|, |t_{k+1}|) + 4 ε τ.  The event time then carries the method's own
+|δτ| ≤ 10⁻¹⁴ max(|t_k|, |t_{k+1}|) + 4 ε τ (``rotlab.core.event_root``).  The event time then carries the method's own
 error only: δt ≈ δg / |ġ|, δg the error of g on the method's state.
 
 Detection is on the samples: two crossings inside one sample interval cancel and are not seen
@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from rotlab.core import event_root as root
 from rotlab.core.event_values import FALLING, RISING, crossings, first_not_finite, formula_values
 from rotlab.core import quaternion as quat
 from rotlab.core import opcodes
@@ -46,7 +47,6 @@ if TYPE_CHECKING:
     from rotlab.methods.base import LocalSolution
     from rotlab.scene.scene import Scene
 
-TIME_RTOL = 1e-14  # Brent's tolerance on the event time, relative to |t| (module docstring)
 RATE_INPUTS = opcodes.INPUTS["omega"][0] + opcodes.INPUTS["omega"][1]  # t and ω: the inputs before Λ
 DIRECTIONS = {"rising": RISING, "falling": FALLING, "both": RISING | FALLING}
 POLE = np.empty(0)  # ``_locate``'s mark of a sign change through a pole
@@ -185,8 +185,7 @@ class EventWatch:
                 continue
             spec, found = self.compiled.specs[k], self.found[k]
             if y is None:
-                return Stop(row, f"event '{spec.name}': when = \"{spec.when}\" is not finite on the method's solution "
-                                 f"between t = {t0:.9g} s and t = {t1:.9g} s: write it so that it is defined on the whole motion")
+                return Stop(row, not_finite_between_message(spec, t0, t1))
             values = np.array([self.compiled.values(k, 1 + j, np.array([when]), y[None, :])[0] for j in range(len(spec.record))])
             if not np.all(np.isfinite(values)):
                 return Stop(row, self._not_finite(k, 1 + int(np.argmin(np.isfinite(values))), when))
@@ -201,31 +200,21 @@ class EventWatch:
         return None
 
     def _locate(self, k: int, t0: float, y0: np.ndarray, t1: float, g0: float) -> tuple[float, np.ndarray | None]:
-        """(time, state) of event ``k``'s root in (t0, t1] on the local solution from (t0, y0);
-        state None when the formula is not finite there, ``POLE`` when the sign changed through a
-        pole (no occurrence)."""
-        states: dict[float, np.ndarray] = {}
-
-        def g(tau: float) -> float:
-            if tau == 0.0:
-                return g0
+        """(time, state) of event ``k``'s root in (t0, t1] on the local solution from (t0, y0)
+        (``rotlab.core.event_root``); state None when the formula is not finite there, ``POLE``
+        when the sign changed through a pole (no occurrence)."""
+        s = np.empty(root.ROOT_STATE)
+        tau = root.locate_start(s, g0, t1 - t0, root.time_tolerance(t0, t1))
+        while True:
             y = self.local(y0, t0, t0 + tau)
-            states[tau] = y
-            return float(self.compiled.values(k, 0, np.array([t0 + tau]), y[None, :])[0])
-
-        span = t1 - t0
-        g1 = g(span)
-        if not np.isfinite(g1):
+            verdict, tau = root.locate_next(s, float(self.compiled.values(k, 0, np.array([t0 + tau]), y[None, :])[0]))
+            if verdict != root.PENDING:
+                break
+        if verdict == root.NOT_FINITE:
             return t1, None
-        if g1 == 0.0 or np.sign(g1) == np.sign(g0):  # the local solution meets 0 at the sample itself (to its rounding)
-            return t1, states[span]
-        from scipy.optimize import brentq  # (imported on the first crossing: SciPy's optimize costs a run without events 24 MB and 0.4 s)
-
-        tau = brentq(g, 0.0, span, xtol=TIME_RTOL * max(abs(t0), abs(t1)) + 1e-300, rtol=4.0 * np.finfo(float).eps)
-        value = g(tau)
-        if not abs(value) <= max(abs(g0), abs(g1)):  # g changed sign through a pole (1/x), not through 0
-            return t0 + tau, POLE
-        return t0 + tau, states[tau]
+        if verdict == root.AT_SAMPLE:  # (the sample's own time)
+            return t1, y
+        return t0 + tau, POLE if verdict == root.POLE else y
 
     def local(self, y: np.ndarray, t0: float, t1: float) -> np.ndarray:
         """The method's local solution (``Method.local_solution``), made on first use."""
@@ -234,11 +223,7 @@ class EventWatch:
         return self._local(y, t0, t1)
 
     def _not_finite(self, k: int, component: int, t: float) -> str:
-        """Event ``k``'s formula ``component`` (0: ``when``, j + 1: ``record[j]``) is not finite at t."""
-        spec = self.compiled.specs[k]
-        formula, text = ("when", spec.when) if component == 0 else (f"record[{component - 1}]", spec.record[component - 1])
-        return (f"event '{spec.name}': {formula} = \"{text}\" is not finite at t = {t:.9g} s "
-                "(a log, sqrt or division outside its domain?): write it so that it is defined on the whole motion")
+        return not_finite_message(self.compiled.specs[k], component, t)
 
     def logs(self) -> dict[str, EventLog]:
         """Each event's occurrences so far, by name."""
@@ -258,12 +243,31 @@ def observable_names(events: list[Event]) -> list[str]:
     return [f"event_{e.name}_{what}" for e in events for what in OBSERVED]
 
 
+def not_finite_message(spec: Event, component: int, t: float) -> str:
+    """Event ``spec``'s formula ``component`` (0: ``when``, j + 1: ``record[j]``) is not finite at t."""
+    formula, text = ("when", spec.when) if component == 0 else (f"record[{component - 1}]", spec.record[component - 1])
+    return (f"event '{spec.name}': {formula} = \"{text}\" is not finite at t = {t:.9g} s "
+            "(a log, sqrt or division outside its domain?): write it so that it is defined on the whole motion")
+
+
+def not_finite_between_message(spec: Event, t0: float, t1: float) -> str:
+    """Event ``spec``'s ``when`` is not finite on the method's solution between two samples."""
+    return (f"event '{spec.name}': when = \"{spec.when}\" is not finite on the method's solution "
+            f"between t = {t0:.9g} s and t = {t1:.9g} s: write it so that it is defined on the whole motion")
+
+
+def observed(count: int, first: float, last: float) -> tuple[float, float, float]:
+    """An event's ``OBSERVED`` values from its number of occurrences and their first and last
+    times: the count, the first time (s) and the mean interval (t_last − t_first)/(count − 1)
+    (s; NaN where undefined)."""
+    nan = float("nan")
+    return float(count), first if count else nan, (last - first) / (count - 1) if count > 1 else nan
+
+
 def observables(logs: dict[str, EventLog]) -> dict[str, float]:
-    """A run's events as a sweep's observables: per event the number of occurrences, the first
-    time (s) and the mean interval between occurrences (s; NaN where undefined)."""
+    """A run's events as a sweep's observables (``observed``), by column."""
     out: dict[str, float] = {}
     for name, log in logs.items():
-        nan = float("nan")
-        values = (float(log.count), float(log.t[0]) if log.count else nan, float(log.intervals().mean()) if log.count > 1 else nan)
+        values = observed(log.count, float(log.t[0]) if log.count else 0.0, float(log.t[-1]) if log.count else 0.0)
         out.update({f"event_{name}_{what}": value for what, value in zip(OBSERVED, values)})
     return out
