@@ -271,3 +271,16 @@ def _dense_eval(F, y, x, out, n):
     u = 1.0 - x
     for m in range(n):
         out[m] = y[m] + x * (F[0, m] + u * (F[1, m] + x * (F[2, m] + u * (F[3, m] + x * (F[4, m] + u * (F[5, m] + x * F[6, m]))))))
+
+
+@njit(cache=True)
+def dop853_local(y, t0, t1, grid, out, rtol, atol, max_steps, model, counters):
+    """The local solution Φ(y, t0, t1) (``Method.local_solution``): y ← the state at t1 of the
+    steps from (t0, y) at the tolerances, as a run starting there takes them (NaN where they
+    fail); ``grid`` (2) and ``out`` (2, len(y)) scratch."""
+    grid[0], grid[1] = t0, t1
+    for m in range(out.shape[1]):
+        out[1, m] = math.nan
+    dop853_advance(y, t0, 0.0, grid, out, 1, t1, rtol, atol, max_steps, model, counters)
+    for m in range(out.shape[1]):
+        y[m] = out[1, m]

@@ -13,34 +13,45 @@ from rotlab.core.state import P0
 from rotlab.core.torques import _to_user, expression_inputs
 
 
+@njit(cache=True, inline="always")
+def formula_value(fn, rows, k, component, t, y, axes, axes_q, moments, rates_only):
+    """Formula ``component`` of event ``k`` at (t, y) (principal frame); ``rows[k]`` holds the
+    event's ``up`` direction as an expression load's row does.  ``rates_only``: the formula
+    reads only t and ω, so Λ, γ and L are not formed (0 in their places)."""
+    if rates_only:
+        w0, w1, w2 = _to_user(axes, y[P0], y[P0 + 1], y[P0 + 2])
+        x = (t, w0, w1, w2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    else:
+        x = expression_inputs(t, y, rows, k, axes, axes_q, moments)
+    return call_formulas(fn, k, component, x)
+
+
 @njit(cache=True)
 def formula_values(fn, rows, k, component, t, states, axes, axes_q, moments, rates_only, out):
-    """out[i] = formula ``component`` of event ``k`` at (t[i], states[i]) (principal frame);
-    ``rows[k]`` holds the event's ``up`` direction as an expression load's row does.
-    ``rates_only``: the formula reads only t and ω, so Λ, γ and L are not formed (0 in their places)."""
+    """out[i] = ``formula_value`` at (t[i], states[i])."""
     for i in range(t.shape[0]):
-        if rates_only:
-            y = states[i]
-            w0, w1, w2 = _to_user(axes, y[P0], y[P0 + 1], y[P0 + 2])
-            x = (t[i], w0, w1, w2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        else:
-            x = expression_inputs(t[i], states[i], rows, k, axes, axes_q, moments)
-        out[i] = call_formulas(fn, k, component, x)
+        out[i] = formula_value(fn, rows, k, component, t[i], states[i], axes, axes_q, moments, rates_only)
 
 
 RISING, FALLING = 1, 2  # bits of an event's direction (both: 3)
 
 
+@njit(cache=True, inline="always")
+def crosses(before, after, direction):
+    """g crossed 0 from ``before`` to ``after`` in ``direction`` (RISING: before < 0 ≤ after;
+    FALLING: before > 0 ≥ after; both bits: either)."""
+    return ((direction & RISING) != 0 and before < 0.0 <= after) or ((direction & FALLING) != 0 and before > 0.0 >= after)
+
+
 @njit(cache=True)
 def crossings(previous, g, direction, out):
     """The rows r where g crossed 0 from the row before (``previous`` before row 0) in
-    ``direction`` (RISING: g_{r−1} < 0 ≤ g_r; FALLING: g_{r−1} > 0 ≥ g_r; both bits: either),
-    written to ``out``; returns their count.  ``g`` is finite (``first_not_finite`` cuts it)."""
+    ``direction`` (``crosses``), written to ``out``; returns their count.  ``g`` is finite (``first_not_finite`` cuts it)."""
     count = 0
     before = previous
     for r in range(g.shape[0]):
         after = g[r]
-        if ((direction & RISING) and before < 0.0 <= after) or ((direction & FALLING) and before > 0.0 >= after):
+        if crosses(before, after, direction):
             out[count] = r
             count += 1
         before = after

@@ -272,3 +272,16 @@ def coefficients(t, y, order, model, c0, T, lever_force, flags):
     series(t, X, order, model, c0, T, lever_force, np.zeros((order + 1, 3)), body, space, np.zeros(N_PRODUCTS * (order + 1)),
            np.zeros((order + 1, 3)), flags[0], flags[1], flags[2], inputs, tape, stack)
     return X
+
+
+@njit(cache=True)
+def taylor_local(y, t0, t1, grid, out, order, rtol, atol, max_steps, model, c0, T, lever_force, flags, counters):
+    """The local solution Φ(y, t0, t1) (``Method.local_solution``): y ← the state at t1 of the
+    series steps from (t0, y) at ``order`` and the tolerances (NaN where they fail); ``grid``
+    (2) and ``out`` (2, len(y)) scratch."""
+    grid[0], grid[1] = t0, t1
+    for m in range(out.shape[1]):
+        out[1, m] = math.nan
+    taylor_advance(y, t0, grid, out, 1, order, rtol, atol, max_steps, model, c0, T, lever_force, flags, counters)
+    for m in range(out.shape[1]):
+        y[m] = out[1, m]

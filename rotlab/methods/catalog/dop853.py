@@ -36,13 +36,12 @@ class DOP853:
         """Its steps from (t0, y) at the run's tolerances, ending at t1 (``Method.local_solution``)."""
         from rotlab.core import dop853 as kernel
 
-        model, counters, out = scene.model, np.zeros(3, dtype=np.int64), np.empty((2, scene.state0.shape[0]))
+        model, counters, grid, out = scene.model, np.zeros(3, dtype=np.int64), np.empty(2), np.empty((2, scene.state0.shape[0]))
 
         def advance(y0: np.ndarray, t0: float, t1: float) -> np.ndarray:
-            out[1] = np.nan  # stays NaN when the steps fail
-            kernel.dop853_advance(y0.copy(), t0, 0.0, np.array([t0, t1]), out, 1, t1, settings.rtol, settings.atol, settings.max_steps,
-                                  model, counters)
-            return out[1].copy()
+            y = y0.copy()
+            kernel.dop853_local(y, t0, t1, grid, out, settings.rtol, settings.atol, settings.max_steps, model, counters)
+            return y
 
         return advance
 

@@ -80,13 +80,13 @@ class Taylor:
         """Its series steps from (t0, y) at the run's order and tolerances, ending at t1 (``Method.local_solution``)."""
         order = self.checked_order(settings)
         c0, T, lever_force, flags = self.constants(scene)
-        model, counters, out = scene.model, np.zeros(1, dtype=np.int64), np.empty((2, scene.state0.shape[0]))
+        model, counters, grid, out = scene.model, np.zeros(1, dtype=np.int64), np.empty(2), np.empty((2, scene.state0.shape[0]))
 
         def advance(y0: np.ndarray, t0: float, t1: float) -> np.ndarray:
-            out[1] = np.nan  # stays NaN when the steps fail
-            kernel.taylor_advance(y0.copy(), t0, np.array([t0, t1]), out, 1, order, settings.rtol, settings.atol, settings.max_steps,
-                                  model, c0, T, lever_force, flags, counters)
-            return out[1].copy()
+            y = y0.copy()
+            kernel.taylor_local(y, t0, t1, grid, out, order, settings.rtol, settings.atol, settings.max_steps, model, c0, T, lever_force,
+                                flags, counters)
+            return y
 
         return advance
 
