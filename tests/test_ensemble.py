@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import csv
 import itertools
+import math
 import signal
 import subprocess
 import sys
@@ -51,8 +52,8 @@ METHOD_SCENES = [  # (config, time.end, method, solver changes)
 ]
 
 
-def _scenes(config: str, end: float, method: str, changes: dict) -> list:
-    raw = read_toml(CONFIGS / config)
+def _scenes(config: str, end: float, method: str, changes: dict, **sections: object) -> list:
+    raw = {**read_toml(CONFIGS / config), **sections}
     raw.pop("sweep", None)
     raw["time"]["end"] = end
     raw["solver"] = {**{k: v for k, v in raw.get("solver", {}).items() if k in ("rtol", "atol")}, "method": method, **changes}
@@ -185,3 +186,79 @@ def _without_seconds(outdir: str) -> list[list[str]]:
     rows = list(csv.reader(open(f"{outdir}/results.csv")))
     drop = rows[0].index("seconds")
     return [r[:drop] + r[drop + 1:] for r in rows]
+
+
+EVENTS = [{"name": "flip", "when": "omega[1]", "direction": "falling"},
+          {"name": "cross", "when": "omega[1] - 5", "record": ["omega[2]", "t"]},
+          {"name": "pole", "when": "1/(omega[1] - 5)"}]  # changes sign through ±∞ where "cross" crosses 0: no occurrence
+EVENT_METHODS = [("rk4", {"step": 1e-3}), ("splitting", {"step": 1e-3}), ("rkmk4", {"step": 1e-3}), ("dmv", {"step": 5e-3, "order": 8}),
+                 ("dop853", {}), ("taylor", {})]
+
+
+def _event_block(method: str, changes: dict, events: list[dict], end: float = 12.0):
+    """(scenes, block result, each scene run alone) of CASES sweep_flip cases with ``events``."""
+    from rotlab import api
+
+    scenes = _scenes("sweep_flip.toml", end, method, changes, events=events)
+    m, settings, t = get_method(method), Settings.of(scenes[0].scenario.solver), scenes[0].scenario.time.sample_times()
+    block = run_block(scenes, m, settings, t, list(range(CASES)), 1, [None] * CASES)
+    return scenes, block, [api.run_scene(scene, plan=(m, "alone", settings, t)) for scene in scenes]
+
+
+@pytest.mark.parametrize("method, changes", EVENT_METHODS, ids=[m for m, _ in EVENT_METHODS])
+def test_events_in_the_ensemble_are_those_of_each_case_run_alone(method, changes):
+    """Each event's count, first time and mean interval in every case equal, bit for bit, those of
+    the case run alone (the same crossings, the same Brent root on the same local solution); a
+    sign change through a pole counts nowhere; the states are unchanged by the events."""
+    from rotlab.events import observables
+
+    _, block, alone = _event_block(method, changes, EVENTS)
+    for k, traj in enumerate(alone):
+        expected = observables(traj.events)
+        assert {column: float(values[k]) for column, values in block.events.items()}.keys() == expected.keys()
+        for column, value in expected.items():
+            ours = float(block.events[column][k])
+            assert ours == value or (math.isnan(ours) and math.isnan(value)), (column, ours, value)
+        assert traj.events["flip"].count >= 1 and traj.events["cross"].count >= 1 and traj.events["pole"].count == 0
+        kept_t, states = block.kept[k]
+        assert block.failure[k] is None and np.array_equal(states, traj._state)
+
+
+FAULTS = {  # events whose formula is not finite somewhere: the case stops there, as its single run
+    "at a sample": [{"name": "flip", "when": "omega[1]"}, {"name": "s", "when": "sqrt(2.3 - t) - 0.1"}],
+    "in a record": [{"name": "flip", "when": "omega[1]", "record": ["log(t - 5)"]}],
+    "between samples": [{"name": "b", "when": "sqrt(omega[1] + 9.9)"}],
+    "at the first sample": [{"name": "z", "when": "log(t)"}],
+}
+
+
+@pytest.mark.parametrize("method, changes", [EVENT_METHODS[0], EVENT_METHODS[4], EVENT_METHODS[5]], ids=["rk4", "dop853", "taylor"])
+@pytest.mark.parametrize("where", list(FAULTS))
+def test_an_event_formula_that_is_not_finite_stops_the_case_as_it_stops_its_single_run(method, changes, where):
+    """The same message (naming the event, the formula and the time), the same samples kept, bit
+    for bit, and the same events counted before the stop."""
+    from rotlab.events import observables
+
+    scenes, block, alone = _event_block(method, changes, FAULTS[where])
+    for k, traj in enumerate(alone):
+        assert traj.stats.failure is not None and block.failure[k] == traj.stats.failure
+        assert block.valid[k] == traj.t.shape[0] < scenes[k].scenario.time.sample_times().shape[0]
+        kept_t, states = block.kept[k]
+        assert np.array_equal(kept_t, traj.t) and np.array_equal(states, traj._state)
+        for column, value in observables(traj.events).items():
+            ours = float(block.events[column][k])
+            assert ours == value or (math.isnan(ours) and math.isnan(value)), column
+
+
+def test_a_sweep_with_events_runs_in_the_ensemble_kernels_but_not_with_a_terminal_event_nor_on_the_gpu(write):
+    from rotlab.sweep.runner import ensemble_plan_or_why
+
+    text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 10.0, 0.01]\n[time]\nend = 8.0\n'
+            '[solver]\nmethod = "rk4"\nstep = 1e-3\n[sweep]\n[sweep.parameters]\n"initial.omega[0]" = [0.01, 0.02]\n'
+            '[[events]]\nname = "flip"\nwhen = "omega[1]"\ndirection = "falling"\n')
+    p = plan(write("s.toml", text))
+    run = run_cases(p)
+    assert run.how.startswith("ensemble kernels (rk4") and all(o.observables["event_flip_count"] >= 1 for o in run.outcomes)
+    assert ensemble_plan_or_why(p, "cuda").startswith("events' formulas are compiled for the CPU")
+    terminal = plan(write("t.toml", text + "terminal = true\n"))
+    assert ensemble_plan_or_why(terminal) == "a terminal event ends each case at its own time: its cases run one by one"

@@ -1,7 +1,8 @@
 """Run a block of cases — scenes of one body and loads from different initial states — through
 the method's ensemble kernel (``rotlab.ensemble.kernels``) and return what each case reports:
-status, samples made, steps, failure, observables, max drift of each invariant, and the samples
-of the cases asked for (every ``stride``-th, and the last valid one).
+status, samples made, steps, failure, observables, max drift of each invariant, its events'
+sweep columns (``rotlab.ensemble.event_scan``), and the samples of the cases asked for (every
+``stride``-th, and the last valid one).
 
 Each case's step is its own, derived as its single run derives it (``solver.step`` or its probe),
 so each case's states are those of the case run alone (tests/test_ensemble.py: bit for bit).
@@ -13,6 +14,7 @@ import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import parallel_chunksize
@@ -20,37 +22,45 @@ from numba import parallel_chunksize
 from rotlab.checks import period_of
 from rotlab.core.kernel_status import NONFINITE, OK
 from rotlab.ensemble import observe as ob
+from rotlab.ensemble.event_scan import BETWEEN_FAULT, FAULT_COLUMNS, FAULT_EVENT, FAULT_FORMULA, FAULT_KIND, FAULT_T0, FAULT_T1, \
+    FOUND_COLUMNS, NO_FAULT, EventInputs
 from rotlab.errors import InputError, RunFailure, first_line
 from rotlab.methods.base import Settings
 from rotlab.methods.stepping import CHUNK_STEPS, budget_message, nonfinite_after, step_floor_message
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import reference_of, runs_of
 
+if TYPE_CHECKING:
+    from rotlab.events import CompiledEvents
 
-def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs,
-            device: str = "cpu") -> dict:
+
+def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, inputs: tuple,
+            events: tuple, outputs: tuple, device: str = "cpu") -> dict:
+    head = (y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, counters)
     if device == "cuda":
         from rotlab.ensemble.gpu import dop853_ensemble
+
+        dop853_ensemble(*head, *inputs, *outputs)
     else:
         from rotlab.ensemble.kernels import dop853_ensemble
 
-    dop853_ensemble(y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, counters, *outputs)
+        dop853_ensemble(*head, *inputs, *events, *outputs)
     return {"rtol": settings.rtol, "atol": settings.atol}
 
 
-def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, *outputs,
-            device: str = "cpu") -> dict:
+def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, inputs: tuple,
+            events: tuple, outputs: tuple, device: str = "cpu") -> dict:
     from rotlab.ensemble.kernels import taylor_ensemble
 
     order = method.checked_order(settings)
     taylor_ensemble(y0, t, order, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, *method.constants(scene),
-                    counters, *outputs)
+                    counters, *inputs, *events, *outputs)
     return {"order": order, "rtol": settings.rtol, "atol": settings.atol}
 
 
 # adaptive methods with an ensemble kernel, each run as its single run is (fixed-step ones all have one):
-# run(scene, method, settings, t, y0, counters, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept,
-# kept_t, kept_count, device=…) → the run's details
+# run(scene, method, settings, t, y0, counters, (case, shared, applies, forces), (events, found, fault) (the CPU's only),
+# (status, valid, last, acc, keep, stride, kept, kept_t, kept_count), device=…) → the run's details
 ADAPTIVE_KERNELS = {"dop853": _dop853, "taylor": _taylor}
 # the methods whose kernels compile for an NVIDIA GPU (``rotlab.ensemble.gpu``; splitting's and taylor's
 # return arrays from compiled functions, which a GPU device function cannot)
@@ -72,8 +82,8 @@ def unsupported_scene(scene: Scene) -> str | None:
         return "a Python torque function cannot run in the parallel ensemble kernel"
     if scene.loads.drives is not None:
         return "a driven rotor's momentum is a state column the ensemble kernels do not carry"
-    if scene.scenario.events:
-        return "events are located on each case's own run, not in the parallel ensemble kernel"
+    if any(event.terminal for event in scene.scenario.events):
+        return "a terminal event ends each case at its own time: its cases run one by one"
     return None
 
 
@@ -92,6 +102,7 @@ class BlockResult:
     reversals: np.ndarray
     max_nutation_deg: np.ndarray
     max_drift: dict[str, np.ndarray]  # invariant → max |relative drift| (the scene's invariants)
+    events: dict[str, np.ndarray]  # sweep column (``rotlab.events.observable_names``) → its value in each case
     kept: dict[int, tuple[np.ndarray, np.ndarray]]  # case → (times, states (n, 8)) of the kept samples
 
 
@@ -135,6 +146,46 @@ def shared_inputs(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return shared, applies, forces
 
 
+def event_inputs(scene: Scene) -> tuple[EventInputs | None, CompiledEvents | None]:
+    """The scene's events for the kernels (``rotlab.ensemble.event_scan``; None without events)
+    and the compiled events they point to (to be kept alive while the kernels run)."""
+    from rotlab.events import DIRECTIONS, compile_events
+
+    compiled = compile_events(scene)
+    if compiled is None:
+        return None, None
+    specs = compiled.specs
+    rates_only = np.zeros((len(specs), 1 + max(len(spec.record) for spec in specs)), dtype=np.bool_)
+    for k, flags in enumerate(compiled.rates_only):
+        rates_only[k, :len(flags)] = flags
+    return EventInputs(compiled.fn, compiled.rows, compiled.axes, compiled.axes_q, compiled.moments,
+                       np.array([DIRECTIONS[spec.direction] for spec in specs], dtype=np.int64),
+                       np.array([len(spec.record) for spec in specs], dtype=np.int64), rates_only), compiled
+
+
+def event_failure(compiled: CompiledEvents, fault: np.ndarray) -> str:
+    """The message of a case's ``fault`` row (``rotlab.ensemble.event_scan``): its single run's."""
+    from rotlab.events import not_finite_between_message, not_finite_message
+
+    kind, spec = int(fault[FAULT_KIND]), compiled.specs[int(fault[FAULT_EVENT])]
+    if kind == BETWEEN_FAULT:
+        return not_finite_between_message(spec, float(fault[FAULT_T0]), float(fault[FAULT_T1]))
+    return not_finite_message(spec, int(fault[FAULT_FORMULA]), float(fault[FAULT_T0]))
+
+
+def event_observables(compiled: CompiledEvents | None, found: np.ndarray, ran: np.ndarray) -> dict[str, np.ndarray]:
+    """Each sweep column of the events (``rotlab.events.observed``) in each case (NaN where a
+    case did not run)."""
+    from rotlab.events import OBSERVED, observed
+
+    columns: dict[str, np.ndarray] = {}
+    for k, spec in enumerate(compiled.specs if compiled is not None else ()):
+        values = np.array([observed(int(c), first, last) if r else (np.nan,) * len(OBSERVED)
+                           for (c, first, last), r in zip(found[:, k].tolist(), ran)], dtype=float).reshape(-1, len(OBSERVED))
+        columns.update({f"event_{spec.name}_{what}": values[:, m] for m, what in enumerate(OBSERVED)})
+    return columns
+
+
 def gpu_unavailable() -> str | None:
     """Why the ensemble cannot run on a GPU here (one line), or None when it can (``rotlab.ensemble.gpu``)."""
     try:
@@ -152,6 +203,13 @@ def unsupported_on_gpu(method: object) -> str | None:
     if name in GPU_METHODS:
         return None
     return f"method {name!r} has no GPU kernel: choose one of {', '.join(GPU_METHODS)} (solver.method), or run without --device cuda"
+
+
+def unsupported_scene_on_gpu(scene: Scene) -> str | None:
+    """Why ``scene`` cannot run on the GPU, beyond ``unsupported_scene`` (None when it can)."""
+    if scene.scenario.events:
+        return "events' formulas are compiled for the CPU: run without --device cuda (the CPU's ensemble kernels take them)"
+    return None
 
 
 @contextmanager
@@ -184,6 +242,9 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     scene = scenes[0]
     case = case_inputs(scenes, given_axes)
     shared, applies, forces = shared_inputs(scene)
+    events, compiled = event_inputs(scene)
+    found = np.zeros((b, len(compiled.specs) if compiled is not None else 0, FOUND_COLUMNS))
+    fault = np.zeros((b, FAULT_COLUMNS))
     y0 = np.array([s.state0 for s in scenes])
     status, valid = np.zeros(b, dtype=np.int64), np.zeros(b, dtype=np.int64)
     last, acc = y0.copy(), np.zeros((b, ob.ACC_COLUMNS))
@@ -197,8 +258,9 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
         counters = np.zeros((b, 3), dtype=np.int64)
         try:
             with parallel_chunksize(1), _gpu_errors(device):  # (cases of unequal cost: each thread takes the next case)
-                run = ADAPTIVE_KERNELS[method.name](scene, method, settings, t, y0, counters, case, shared, applies, forces, status, valid,
-                                                   last, acc, where, stride, kept, kept_t, kept_count, device=device)
+                run = ADAPTIVE_KERNELS[method.name](scene, method, settings, t, y0, counters, (case, shared, applies, forces),
+                                                   (events, found, fault), (status, valid, last, acc, where, stride, kept, kept_t, kept_count),
+                                                   device=device)
         except InputError as exc:
             return exc
         steps, rejected, evaluations = counters[:, 0].copy(), counters[:, 1].copy(), counters[:, 2].copy()
@@ -217,23 +279,25 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
                 failure[k] = str(exc)
                 details.append({})
         steps = np.zeros(b, dtype=np.int64)
-        outputs = (case, shared, applies, forces, status, valid, steps, last, acc, where, stride, kept, kept_t, kept_count)
+        inputs, outputs = (case, shared, applies, forces), (status, valid, steps, last, acc, where, stride, kept, kept_t, kept_count)
         if device == "cuda":
             from rotlab.ensemble import gpu
 
             with _gpu_errors(device):
                 gpu.fixed_step_ensemble(method.kernel, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
-                                        *outputs)
+                                        *inputs, *outputs)
         else:
             with parallel_chunksize(1):
                 kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, scene.model,
-                                                method.kernel_args(scene, order), *outputs)
+                                                method.kernel_args(scene, order), *inputs, events, found, fault, *outputs)
         rejected = np.zeros(b, dtype=np.int64)
         evaluations = steps * method.evaluations_per_step(scene, order)
     for k in range(b):
         if failure[k] is not None:
             continue
-        if status[k] == NONFINITE:
+        if fault[k, FAULT_KIND] != NO_FAULT:  # (before a non-finite state: the event's formula stopped the case first)
+            failure[k] = event_failure(compiled, fault[k])
+        elif status[k] == NONFINITE:
             failure[k] = nonfinite_after(float(t[valid[k] - 1]), float(t[min(valid[k], n - 1)]), last[k])
         elif status[k] != OK:  # (the kernels keep the integrator's time to themselves: the last sample says where)
             failure[k] = step_floor_message(f"after t = {t[valid[k] - 1]:.9g} s")
@@ -246,7 +310,8 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     period = period_of(acc[:, ob.ACC_FIRST], acc[:, ob.ACC_LAST], reversals)
     nutation = np.where(ran, np.degrees(np.arccos(np.where(ran, acc[:, ob.ACC_MIN_COS], 1.0))), np.nan)
     kept_rows = {k: (kept_t[where[k], :kept_count[k]].copy(), kept[where[k], :kept_count[k]].copy()) for k in keep if ran[k]}
-    return BlockResult(status, valid, steps, rejected, evaluations, failure, details, period, reversals, nutation, drift, kept_rows)
+    return BlockResult(status, valid, steps, rejected, evaluations, failure, details, period, reversals, nutation, drift,
+                       event_observables(compiled, found, ran), kept_rows)
 
 
 def _substeps(method, scene: Scene, t: np.ndarray, settings: Settings, order: int) -> tuple[int, dict[str, object]]:

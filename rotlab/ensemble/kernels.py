@@ -3,9 +3,12 @@ each case is the method's own kernel run as a single run calls it, its observabl
 its samples are made (``rotlab.ensemble.observe``), and only the samples of the cases asked for
 kept (every ``stride``-th and the last valid one).
 
+A case's events (``rotlab.ensemble.event_scan``) are found in its rows before they are observed:
+an event's formula that is not finite ends the case there, as it ends its single run.
+
 Fixed-step methods (``advance(y, times, out, i, substeps, max_steps, model, *extra)``, see
-``rotlab.methods.fixed_step``), named by a string the kernel is compiled for (``advance_of``:
-a kernel passed as an argument would be a function pointer, which numba cannot cache), run in windows of ``WINDOW`` samples: a fixed step starts each
+``rotlab.methods.fixed_step``), named by a string the kernel is compiled for
+(``rotlab.ensemble.method_calls``), run in windows of ``WINDOW`` samples: a fixed step starts each
 sample interval afresh, so the windows change no bit, and a case needs WINDOW rows of memory
 whatever its length.  ``dop853`` and ``taylor`` run over the whole sample grid, as a single run
 does (their steps straddle samples and stop at the grid's end: a window would change them), so
@@ -24,6 +27,8 @@ from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.kernel_status import OK, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
+from rotlab.ensemble.event_scan import event_scratch, open_events, scan_events
+from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 from rotlab.core.model import Model
 
@@ -47,25 +52,6 @@ def run_fixed_step_ensemble(method: str, *args: object) -> None:
     for signature, compiled in getattr(fixed_step_ensemble, "overloads", {}).items():
         if signature[0] == types.literal(method) and tuple(signature[1:]) == key[1]:
             _ENTRIES[key] = compiled.entry_point
-
-
-def advance_of(method, y, times, rows, i, substeps, budget, model, extra):
-    """The kernel of the fixed-step method named ``method`` (a literal string), called with ``*extra``."""
-    raise NotImplementedError("compiled code only")
-
-
-@overload(advance_of)
-def _advance_of(method, y, times, rows, i, substeps, budget, model, extra):
-    if not isinstance(method, types.StringLiteral):
-        return None
-    from rotlab.methods.registry import get_method
-
-    kernel = get_method(method.literal_value).kernel
-
-    def call(method, y, times, rows, i, substeps, budget, model, extra):
-        return kernel(y, times, rows, i, substeps, budget, model, *extra)
-
-    return call
 
 
 def own(x):
@@ -120,11 +106,12 @@ def _keep_last(row, t, kept, kept_t, count):
 
 
 @njit(cache=True, parallel=True)
-def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces,
+def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, events, found, fault,
                         status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count):
     """Every case b from ``y0[b]`` with ``substeps[b]`` steps per sample interval of the fixed-step
     method named ``method``: ``status[b]``,
-    ``valid[b]`` (samples made), ``steps[b]``, ``acc[b]`` (observables); case b's samples go to
+    ``valid[b]`` (samples made), ``steps[b]``, ``acc[b]`` (observables), ``found[b]`` and
+    ``fault[b]`` (its ``events``, None without: ``event_scan``); case b's samples go to
     ``kept[keep[b]]`` (``kept_count[b]`` rows) when ``keep[b] ≥ 0``; ``last[b]``: its last valid
     state.  A case with ``substeps[b] ≤ 0`` is not run (its outputs are left as they are)."""
     n = times.shape[0]
@@ -136,24 +123,28 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
         folded = np.empty(acc.shape[1])  # this case's own (a row of ``acc`` shares cache lines with its neighbours')
         rows = np.empty((min(n, WINDOW + 1), STATE_SIZE))
         store_row(rows, 0, y)
+        solver, watch = (substeps[b], extra), event_scratch(events, STATE_SIZE)
+        opened = open_events(events, times, rows, fault[b], watch)
         constants = constants_of(case[b], shared, applies)
         observe_rows(times, rows, 0, 1, True, constants, forces, folded)
         count = np.zeros(1, dtype=np.int64)
         if keep[b] >= 0:
             keep_samples(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
         code, i, taken = OK, 1, 0
-        while i < n:
+        while i < n and opened == 1:
             lo, hi = i - 1, min(n, i + WINDOW)
             code, j, done = advance_of(literally(method), y, times[lo:hi], rows, 1, substeps[b], max_steps - taken, mine, extra)
             taken += done
             if code != OK:
                 j = _finite_rows(rows, 1, j)
+            made = j
+            j = scan_events(literally(method), solver, mine, events, times[lo:hi], rows, j, found[b], fault[b], watch)
             observe_rows(times[lo:hi], rows, 1, j, False, constants, forces, folded)
             if keep[b] >= 0:
                 keep_samples(rows, times[lo:hi], 1, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
             i = lo + j
             store_row(rows, 0, rows[j - 1])
-            if code != OK or j == 1:  # non-finite, or the step budget cannot reach the next sample
+            if code != OK or j == 1 or j < made:  # non-finite, the step budget cannot reach the next sample, or an event stopped it
                 break
         report_fixed_step(b, code, i, taken, rows[0], times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,
                           kept_count)
@@ -222,36 +213,62 @@ def report_whole(b, code, i, rows, times, case, shared, applies, forces, status,
     kept_count[b] = count[0]
 
 
+@njit(cache=True)
+def scan_whole(method, solver, model, events, times, rows, i, code, found, fault, watch):
+    """The events of a case whose rows [1, i) were made over the whole grid (its first sample
+    opened: ``open_events``), with status ``code``: the end of its valid rows (``event_scan``; a
+    kernel stopped by a non-finite state may have written rows past its last valid one)."""
+    if code != OK:
+        i = _finite_rows(rows, 1, i)
+    return scan_events(method, solver, model, events, times, rows, i, found, fault, watch)
+
+
 @njit(cache=True, parallel=True)
-def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces,
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces, events, found, fault,
                     status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations)."""
     for b in prange(y0.shape[0]):
         y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, 3)
-        code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted)
+        solver, watch = (rtol, atol, max_steps), event_scratch(events, STATE_SIZE)
+        code, i = OK, open_events(events, times, rows, fault[b], watch)
+        if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
+            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted)
+            i = scan_whole("dop853", solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
         for m in range(3):
             counters[b, m] = counted[m]
-        report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+        report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count)
+
+
+@njit(cache=True)
+def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, T, lever_force, flags, counted):
+    """One ``taylor`` case from ``rows[0]`` = y over the sample grid ``times``, as its single run
+    steps (``dop853_case``): (status, samples made); ``counted[0]``: steps."""
+    n = times.shape[0]
+    code, i, t, lo, hi = OK, 1, times[0], 0, min(n, RUN_WINDOW + 1)
+    while i < n and counted[0] < max_steps:
+        code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, min(chunk, max_steps - counted[0]),
+                                    model, c0, T, lever_force, flags, counted)
+        i = lo + j
+        if code != OK:
+            break
+        if i == hi < n:
+            lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
+    return code, i
 
 
 @njit(cache=True, parallel=True)
 def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, c0, T, lever_force, flags, counters, case, shared, applies,
-                    forces, status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
+                    forces, events, found, fault, status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``taylor`` at ``order`` (its ``kernel_constants`` c0, T,
     lever_force, flags; ``counters[b, 0]``: steps)."""
-    n = times.shape[0]
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count = _start_whole(y0, b, n, model, 1)
-        code, i, t, lo, hi = OK, 1, times[0], 0, min(n, RUN_WINDOW + 1)
-        while i < n and counted[0] < max_steps:  # in calls of ``chunk`` steps on ``stepping.run_chunks``'s windows
-            code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, min(chunk, max_steps - counted[0]),
-                                        mine, c0, T, lever_force, flags, counted)
-            i = lo + j
-            if code != OK:
-                break
-            if i == hi < n:
-                lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
+        y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, 1)
+        solver, watch = (order, rtol, atol, max_steps, c0, T, lever_force, flags), event_scratch(events, STATE_SIZE)
+        code, i = OK, open_events(events, times, rows, fault[b], watch)
+        if i == 1:  # (as ``dop853_ensemble``)
+            code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted)
+            i = scan_whole("taylor", solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
         counters[b, 0] = counted[0]
-        report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+        report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count)
