@@ -4,7 +4,7 @@ check of every sample); with the flip (``omega[1]`` falling: the check and the l
 occurrence by Brent's method on the method's own local solution); with a Poincaré section (the
 flip recording two values).
 
-    python benchmarks/bench_events.py [--repeats 7] [--end 200]
+    python benchmarks/bench_events.py [--repeats 7] [--end 200] [--cases 128]
 
 Problem: configs/dzhanibekov.toml over ``--end`` seconds at 200 samples/s (40,001 samples and 33
 falling flips at 200 s).  Columns: the plain run (median of ``--repeats`` runs, interleaved with
@@ -12,6 +12,11 @@ the others), its time per step (per sample for ``exact``), samples per step, the
 (never − plain) per sample and as a fraction of the plain run, the location's cost per occurrence
 ((flip − never) / occurrences), and the section's whole overhead.  The target (issue 35): an event
 on a formula ≤ 15 % of a plain step.
+
+Then the same events in the ensemble kernels (``rotlab.ensemble``: found inside the kernel as each
+case's samples are made): ``--cases`` cases of configs/sweep_flip.toml (20 s, 4,001 samples, ω₀
+dispersed by ±0.05 rad/s) in one call on every thread numba has, without events, with ``never``
+and with the flip; per-case time (median of ``--repeats`` calls, interleaved) and the overheads.
 
 Then what a Lyapunov exponent costs (``rotlab.lyapunov``: two local solutions of the method per
 sample interval) against the plain run of the same scenario, configs/chaotic_top.toml (600 s, 50
@@ -42,6 +47,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--end", type=float, default=200.0)
+    parser.add_argument("--cases", type=int, default=128)
     args = parser.parse_args()
     print(f"dzhanibekov.toml, {args.end:g} s at 200 samples/s; median of {args.repeats} runs each, interleaved\n")
     print("| method | steps | plain run (ms) | per step (ns) | samples per step | check per sample (ns) | check / plain run "
@@ -69,6 +75,7 @@ def main() -> None:
               f"| {100 * (never - plain) / plain:+.1f} % | {(flip - never) / count * 1e6:.0f} | {100 * (section - plain) / plain:+.1f} % |")
     print()
     check_alone(max(9, args.repeats))
+    ensemble_cost(args.cases, args.repeats)
     lyapunov_cost(max(3, args.repeats // 2))
 
 
@@ -90,6 +97,42 @@ def check_alone(repeats: int) -> None:
             watch.rows(0, t, states)
             seconds.append(time.perf_counter() - started)
         print(f"check alone, when = \"{when}\": {np.median(seconds) / t.shape[0] * 1e9:.1f} ns a sample (median of {repeats})")
+
+
+def ensemble_cost(cases: int, repeats: int) -> None:
+    import numba
+
+    from rotlab.ensemble.block import run_block
+    from rotlab.methods.base import Settings
+    from rotlab.methods.registry import get_method
+
+    print(f"ensemble kernels: {cases} cases of sweep_flip.toml a call, {numba.get_num_threads()} threads; median of {repeats} calls each, "
+          "interleaved\n")
+    print("| method | plain (ms/case) | + never | + flip | flips a case | location per occurrence (µs, thread time) |")
+    print("|---|---|---|---|---|---|")
+    rng = np.random.default_rng(1)
+    spread = rng.uniform(-0.05, 0.05, size=(cases, 3))
+    for method, settings in (("rk4", {"solver.step": 1e-3}), ("dop853", {})):
+        blocks = {}
+        for label, events in (("plain", []), ("never", [NEVER]), ("flip", [FLIP])):
+            scenes = [build_scene(rotlab.load(CONFIGS / "sweep_flip.toml", method=method, overrides={
+                **settings, "events": events, "initial.omega": [float(w) for w in np.array([0.01, 10.0, 0.01]) + dw]})) for dw in spread]
+            t, m = scenes[0].scenario.time.sample_times(), get_method(method)
+            run = (lambda scenes=scenes, t=t, m=m: run_block(scenes, m, Settings.of(scenes[0].scenario.solver), t, [], 1, [None] * cases))
+            run()  # compile / load the kernels
+            blocks[label] = run
+        seconds: dict[str, list[float]] = {label: [] for label in blocks}
+        for _ in range(repeats):
+            for label, run in blocks.items():
+                started = time.perf_counter()
+                result = run()
+                seconds[label].append(time.perf_counter() - started)
+                if label == "flip":
+                    flips = float(np.mean(result.events["event_flip_count"]))
+        plain, never, flip = (float(np.median(seconds[k])) / cases for k in ("plain", "never", "flip"))
+        print(f"| {method} | {plain * 1e3:.3f} | {100 * (never - plain) / plain:+.1f} % | {100 * (flip - plain) / plain:+.1f} % | {flips:.1f} "
+              f"| {(flip - never) / flips * numba.get_num_threads() * 1e6:.0f} |")
+    print()
 
 
 def lyapunov_cost(repeats: int) -> None:
