@@ -71,9 +71,26 @@ def test_each_case_of_an_ensemble_is_its_single_run_and_reports_its_observables(
     """States at every sample identical to the case run alone (``np.array_equal``), the same step
     count, and the observables of the stored-trajectory report (``outcomes_of``): the flip period
     and max nutation to 1e-13 relative, each invariant's max drift to 1e-15 (in units of its scale)."""
+    block = _assert_each_case_is_its_single_run(_scenes(config, end, method, changes), method)
+    assert any(np.isfinite(block.flip_period)) or config != "sweep_flip.toml"  # the flip is measured where there is one
+
+
+FORMULA_LOADS = [{"type": "expression", "frame": "body", "constants": {"k": 2e-5},  # a damping in the body, a pulse fixed in space
+                  "torque": ["-k*omega[0]", "-k*omega[1]*(1 + 0.5*sin(t))", "-k*omega[2]"]},
+                 {"type": "expression", "frame": "space", "torque": ["0", "1e-5*exp(-t)", "0"]}]
+
+
+@pytest.mark.parametrize("method, changes", [("rk4", {"step": 1e-3}), ("dop853", {}), ("taylor", {})], ids=["rk4", "dop853", "taylor"])
+def test_formula_loads_run_in_the_ensemble_each_case_its_single_run(method, changes):
+    """Formula loads (compiled expressions, body and space frames) in the parallel kernels: each
+    case's states, steps and observables those of its run alone (the bounds of the test above)."""
+    _assert_each_case_is_its_single_run(_scenes("sweep_flip.toml", 12.0, method, changes, loads=FORMULA_LOADS), method)
+
+
+def _assert_each_case_is_its_single_run(scenes: list, method: str):
+    """The ensemble's block of ``scenes``, each case checked against its run alone."""
     from rotlab import api
 
-    scenes = _scenes(config, end, method, changes)
     m = get_method(method)
     settings = Settings.of(scenes[0].scenario.solver)
     t = scenes[0].scenario.time.sample_times()
@@ -92,7 +109,7 @@ def test_each_case_of_an_ensemble_is_its_single_run_and_reports_its_observables(
         assert set(block.max_drift) == set(outcome.drift)
         for name, value in outcome.drift.items():
             assert abs(block.max_drift[name][k] - value) <= 1e-15, name
-    assert any(np.isfinite(block.flip_period)) or config != "sweep_flip.toml"  # the flip is measured where there is one
+    return block
 
 
 def test_a_case_the_step_cannot_take_is_an_error_and_the_others_run(write):
@@ -262,3 +279,32 @@ def test_a_sweep_with_events_runs_in_the_ensemble_kernels_but_not_with_a_termina
     assert ensemble_plan_or_why(p, "cuda").startswith("events' formulas are compiled for the CPU")
     terminal = plan(write("t.toml", text + "terminal = true\n"))
     assert ensemble_plan_or_why(terminal) == "a terminal event ends each case at its own time: its cases run one by one"
+
+
+@pytest.mark.parametrize("method, changes", [("rk4", {"step": 1e-3}), ("dop853", {})], ids=["rk4", "dop853"])
+def test_a_formula_load_that_is_not_finite_stops_its_case_with_its_single_runs_words(method, changes):
+    """The torque's formula turns NaN at a different time in each case: each case stops there with
+    the samples, steps and message (naming the formula, the time and the state) of its run alone."""
+    from rotlab import api
+
+    loads = [{"type": "expression", "frame": "body", "torque": ["0", "0", "1e-6*sqrt(2.2 - t + 0.1*omega[0])"]}]
+    scenes = _scenes("sweep_flip.toml", 5.0, method, changes, loads=loads)
+    m, settings, t = get_method(method), Settings.of(scenes[0].scenario.solver), scenes[0].scenario.time.sample_times()
+    block = run_block(scenes, m, settings, t, list(range(CASES)), 1, [None] * CASES)
+    for k, scene in enumerate(scenes):
+        traj = api.run_scene(scene, plan=(m, "alone", settings, t))
+        assert traj.stats.failure.startswith("loads[0].torque[2] = '1e-6*sqrt(2.2 - t + 0.1*omega[0])' is not finite at t = 2.")
+        assert block.failure[k] == traj.stats.failure and block.steps[k] == traj.stats.steps
+        assert np.array_equal(block.kept[k][1], traj._state)
+
+
+def test_a_detumbling_monte_carlo_runs_in_the_ensemble_kernels_but_not_on_the_gpu(write):
+    """The B-dot law is a formula load (``bdot_detumbling``): a sweep over the tumble runs in the
+    ensemble kernels; the GPU, which cannot call the CPU's compiled formulas, refuses it in one line."""
+    from rotlab.sweep.runner import ensemble_plan_or_why
+
+    text = (CONFIGS / "detumbling.toml").read_text().replace("end = 6000.0", "end = 300.0").replace("samples = 6001", "samples = 301")
+    p = plan(write("d.toml", text + '\n[sweep]\n[sweep.parameters]\n"initial.omega_deg[0]" = [3.0, 5.0]\n'))
+    run = run_cases(p)
+    assert run.how.startswith("ensemble kernels (dop853") and [o.status for o in run.outcomes] == ["pass", "pass"]
+    assert ensemble_plan_or_why(p, "cuda").startswith("a formula load (expression) is compiled for the CPU")

@@ -254,14 +254,16 @@ def test_the_terminal_shows_a_large_sweeps_failing_cases_only(cases, failing):
 
 
 def test_an_rk4_sweep_over_initial_states_with_a_formula_load_runs_and_names_its_failures(cli, write, tmp_path):
-    """The ensemble kernel cannot take formula loads (numba's parallel loop refused the model:
-    a TypeError traceback); such sweeps run case by case, and a formula that fails is named."""
+    """Formula loads run in the ensemble kernels (handed to the threads apart from the model: nested
+    in it, numba's parallel loop refused it with a TypeError traceback); a formula that fails is
+    named as the case's single run names it."""
     text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 10.0, 0.01]\n'
             '[[loads]]\ntype = "expression"\nframe = "body"\ntorque = ["0", "1e-5*sqrt(omega[1] - 9.995)", "0"]\n'
             '[time]\nend = 2.0\nsample_rate = 100\n[solver]\nmethod = "rk4"\nstep = 1e-3\n'
             '[sweep]\n[sweep.parameters]\n"initial.omega[0]" = [0.001, 0.1]\n')
     result = cli("sweep", str(write("bad.toml", text)), "-o", "out")
     assert result.exit_code == 1 and "Traceback" not in result.stderr + result.stdout
+    assert "ensemble kernels (rk4" in result.stdout
     rows = list(csv.DictReader((tmp_path / "out" / "results.csv").open()))
     assert [r["status"] for r in rows] == ["fail", "fail"]
     assert all("loads[0].torque[1] = '1e-5*sqrt(omega[1] - 9.995)' is not finite at t = " in r["message"] for r in rows)

@@ -36,25 +36,25 @@ if TYPE_CHECKING:
 
 def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, inputs: tuple,
             events: tuple, outputs: tuple, device: str = "cpu") -> dict:
-    head = (y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, counters)
+    head = (y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS)
     if device == "cuda":
         from rotlab.ensemble.gpu import dop853_ensemble
 
-        dop853_ensemble(*head, *inputs, *outputs)
+        dop853_ensemble(*head, scene.model, counters, *inputs, *outputs)
     else:
-        from rotlab.ensemble.kernels import dop853_ensemble
+        from rotlab.ensemble.kernels import dop853_ensemble, parallel_model
 
-        dop853_ensemble(*head, *inputs, *events, *outputs)
+        dop853_ensemble(*head, *parallel_model(scene.model), counters, *inputs, *events, *outputs)
     return {"rtol": settings.rtol, "atol": settings.atol}
 
 
 def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, inputs: tuple,
             events: tuple, outputs: tuple, device: str = "cpu") -> dict:
-    from rotlab.ensemble.kernels import taylor_ensemble
+    from rotlab.ensemble.kernels import parallel_model, taylor_ensemble
 
     order = method.checked_order(settings)
-    taylor_ensemble(y0, t, order, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, scene.model, *method.constants(scene),
-                    counters, *inputs, *events, *outputs)
+    taylor_ensemble(y0, t, order, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, *parallel_model(scene.model),
+                    *method.constants(scene), counters, *inputs, *events, *outputs)
     return {"order": order, "rtol": settings.rtol, "atol": settings.atol}
 
 
@@ -73,11 +73,9 @@ def has_ensemble_kernel(method: object) -> bool:
 
 
 def unsupported_scene(scene: Scene) -> str | None:
-    """Why ``scene``'s loads cannot run in a parallel ensemble kernel (None when they can): numba's
-    parallel loop cannot take the formulas' record nested in the kernels' model (a TypeError while
-    compiling), and a Python ``torque=`` function is not compiled into it."""
-    if scene.loads.expressions is not None:
-        return "a formula load (expression) cannot run in the parallel ensemble kernel"
+    """Why ``scene`` cannot run in a parallel ensemble kernel (None when it can): a Python
+    ``torque=`` function is not compiled into it, driven rotors add state columns, and a terminal
+    event ends each case at its own time."""
     if scene.loads.user is not None:
         return "a Python torque function cannot run in the parallel ensemble kernel"
     if scene.loads.drives is not None:
@@ -206,7 +204,10 @@ def unsupported_on_gpu(method: object) -> str | None:
 
 
 def unsupported_scene_on_gpu(scene: Scene) -> str | None:
-    """Why ``scene`` cannot run on the GPU, beyond ``unsupported_scene`` (None when it can)."""
+    """Why ``scene`` cannot run on the GPU, beyond ``unsupported_scene`` (None when it can): the
+    formulas of loads and events are compiled for the CPU (a C function the GPU cannot call)."""
+    if scene.loads.expressions is not None:
+        return "a formula load (expression) is compiled for the CPU: run without --device cuda (the CPU's ensemble kernels take it)"
     if scene.scenario.events:
         return "events' formulas are compiled for the CPU: run without --device cuda (the CPU's ensemble kernels take them)"
     return None
@@ -288,7 +289,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
                                         *inputs, *outputs)
         else:
             with parallel_chunksize(1):
-                kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, scene.model,
+                kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, *kernels.parallel_model(scene.model),
                                                 method.kernel_args(scene, order), *inputs, events, found, fault, *outputs)
         rejected = np.zeros(b, dtype=np.int64)
         evaluations = steps * method.evaluations_per_step(scene, order)
@@ -298,7 +299,8 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
         if fault[k, FAULT_KIND] != NO_FAULT:  # (before a non-finite state: the event's formula stopped the case first)
             failure[k] = event_failure(compiled, fault[k])
         elif status[k] == NONFINITE:
-            failure[k] = nonfinite_after(float(t[valid[k] - 1]), float(t[min(valid[k], n - 1)]), last[k])
+            failure[k] = _formula_fault(method, scenes[k], t, settings) or nonfinite_after(float(t[valid[k] - 1]),
+                                                                                           float(t[min(valid[k], n - 1)]), last[k])
         elif status[k] != OK:  # (the kernels keep the integrator's time to themselves: the last sample says where)
             failure[k] = step_floor_message(f"after t = {t[valid[k] - 1]:.9g} s")
         elif valid[k] < n:
@@ -312,6 +314,16 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     kept_rows = {k: (kept_t[where[k], :kept_count[k]].copy(), kept[where[k], :kept_count[k]].copy()) for k in keep if ran[k]}
     return BlockResult(status, valid, steps, rejected, evaluations, failure, details, period, reversals, nutation, drift,
                        event_observables(compiled, found, ran), kept_rows)
+
+
+def _formula_fault(method, scene: Scene, t: np.ndarray, settings: Settings) -> str | None:
+    """The words of a case whose state became non-finite in a scene with formula loads: its
+    single run's, which name the formula that did it, the time and the state (compiled formulas
+    report a fault in one process-wide record, ``rotlab.core.faults``, which the ensemble's
+    threads share: the case is run again alone, to its stop, with the same steps)."""
+    if scene.loads.expressions is None:
+        return None
+    return method.solve(scene, t, settings, None).failure
 
 
 def _substeps(method, scene: Scene, t: np.ndarray, settings: Settings, order: int) -> tuple[int, dict[str, object]]:

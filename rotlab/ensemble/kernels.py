@@ -30,7 +30,7 @@ from rotlab.core.kernel_status import OK, WINDOW as RUN_WINDOW  # an adaptive ca
 from rotlab.ensemble.event_scan import event_scratch, open_events, scan_events
 from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
-from rotlab.core.model import Model
+from rotlab.core.model import Expressions, Model
 
 WINDOW = 4096  # samples per fixed-step kernel call within a case
 _ENTRIES: dict[tuple, object] = {}  # (method, argument types) → the compiled entry of ``fixed_step_ensemble``
@@ -66,12 +66,35 @@ def _own(x):
     return lambda x: x
 
 
+def parallel_model(model: Model) -> tuple[Model, Expressions | None]:
+    """``model`` as the parallel kernels take it: without its formulas, and its formulas apart
+    (numba's parallel loop hands a tuple's arrays to its threads one level deep, and the formulas
+    are a tuple of arrays inside the model); ``own_model`` puts them together for each case."""
+    return model._replace(expressions=None), model.expressions
+
+
+def own_expressions(expressions):
+    """A copy of the formulas' arrays (None as it is)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(own_expressions)
+def _own_expressions(expressions):
+    if isinstance(expressions, types.NoneType):
+        return lambda expressions: None
+    return lambda expressions: Expressions(expressions.rows.copy(), expressions.code.copy(), expressions.consts.copy(), expressions.axes.copy(),
+                                           expressions.axes_q.copy(), expressions.moments.copy(), expressions.depth, expressions.aux,
+                                           expressions.fn)
+
+
 @njit(cache=True)
-def own_model(model):
-    """A copy of ``model``'s arrays for one thread: numba counts references to an array passed to a
-    function with an atomic write, and two threads passing the same array contend for its cache line."""
+def own_model(model, expressions):
+    """``model`` with ``expressions`` (``parallel_model``), its arrays copied for one thread:
+    numba counts references to an array passed to a function with an atomic write, and two
+    threads passing the same array contend for its cache line."""
     return Model(own(model.euler), own(model.breaks), own(model.forces), own(model.terms), own(model.tables),
-                 own(model.table_t), own(model.table_v), model.damping, model.expressions, model.user, own(model.rotors), model.drives)
+                 own(model.table_t), own(model.table_v), model.damping, own_expressions(expressions), model.user, own(model.rotors),
+                 model.drives)
 
 
 @njit(cache=True)
@@ -106,7 +129,7 @@ def _keep_last(row, t, kept, kept_t, count):
 
 
 @njit(cache=True, parallel=True)
-def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, events, found, fault,
+def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, expressions, extra, case, shared, applies, forces, events, found, fault,
                         status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count):
     """Every case b from ``y0[b]`` with ``substeps[b]`` steps per sample interval of the fixed-step
     method named ``method``: ``status[b]``,
@@ -119,7 +142,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, extra, ca
         if substeps[b] <= 0:
             continue
         y = y0[b].copy()
-        mine = own_model(model)
+        mine = own_model(model, expressions)
         folded = np.empty(acc.shape[1])  # this case's own (a row of ``acc`` shares cache lines with its neighbours')
         rows = np.empty((min(n, WINDOW + 1), STATE_SIZE))
         store_row(rows, 0, y)
@@ -164,14 +187,14 @@ def report_fixed_step(b, code, i, taken, y, times, folded, count, status, valid,
 
 
 @njit(cache=True)
-def _start_whole(y0, b, n, model, counts):
+def _start_whole(y0, b, n, model, expressions, counts):
     """Case b's state, its grid of ``n`` rows (row 0 its first sample), its own copy of the model,
     its own ``counts`` counters and the scratch of ``report_whole`` (none shares a cache line or a
     reference count with another case's: a row of ``acc`` shares cache lines with its neighbours')."""
     y = y0[b].copy()
     rows = np.empty((n, STATE_SIZE))
     store_row(rows, 0, y)
-    return y, rows, own_model(model), np.zeros(counts, dtype=np.int64), np.empty(ACC_COLUMNS), np.zeros(1, dtype=np.int64)
+    return y, rows, own_model(model, expressions), np.zeros(counts, dtype=np.int64), np.empty(ACC_COLUMNS), np.zeros(1, dtype=np.int64)
 
 
 @njit(cache=True)
@@ -224,11 +247,11 @@ def scan_whole(method, solver, model, events, times, rows, i, code, found, fault
 
 
 @njit(cache=True, parallel=True)
-def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces, events, found, fault,
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions, counters, case, shared, applies, forces, events, found, fault,
                     status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations)."""
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, 3)
+        y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, expressions, 3)
         solver, watch = (rtol, atol, max_steps), event_scratch(events, STATE_SIZE)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
@@ -258,12 +281,12 @@ def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, 
 
 
 @njit(cache=True, parallel=True)
-def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, c0, T, lever_force, flags, counters, case, shared, applies,
+def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expressions, c0, T, lever_force, flags, counters, case, shared, applies,
                     forces, events, found, fault, status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``taylor`` at ``order`` (its ``kernel_constants`` c0, T,
     lever_force, flags; ``counters[b, 0]``: steps)."""
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, 1)
+        y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, expressions, 1)
         solver, watch = (order, rtol, atol, max_steps, c0, T, lever_force, flags), event_scratch(events, STATE_SIZE)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (as ``dop853_ensemble``)
