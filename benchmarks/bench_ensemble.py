@@ -2,10 +2,12 @@
 (``rotlab.ensemble``, observables reduced as each case runs), on 1 and 2 threads, against the same
 cases each solved alone (``Method.solve``, the single run's integration, without its report).
 
-    python benchmarks/bench_ensemble.py [--cases 128] [--repeats 7]
+    python benchmarks/bench_ensemble.py [--cases 128] [--repeats 7] [--problems NAME]
 
 Problems: the free body of configs/sweep_flip.toml (20 s at 200 samples/s, ω₀ dispersed as the
-sweep disperses it) and the heavy top of configs/lagrange.toml (10 s), each case from a perturbed ω₀.
+sweep disperses it), the heavy top of configs/lagrange.toml (10 s), and the free body with two
+formula loads (``FORMULAS``: compiled expressions in the body and space frames), each case from
+a perturbed ω₀.
 Fixed-step methods at a given step (rk4, splitting, rkmk4: h = 1e-3 s on the free body, 1e-4 s on the
 top; dmv at order 8, h = 5e-3 s), dop853 and taylor at the file's rtol.  Columns: per-case solve time alone
 (median of the first 16 cases), the ensemble's per-case time on 1 and 2 threads (median of
@@ -31,18 +33,22 @@ from rotlab.scene.scene import build_scene
 
 ALONE = 16  # cases solved alone in each round
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-PROBLEMS = {  # name → (file, changes, spread of ω₀ (rad/s), per method: solver settings)
+FORMULAS = [{"type": "expression", "frame": "body", "constants": {"k": 2e-5},  # a damping in the body, a decaying push fixed in space
+             "torque": ["-k*omega[0]", "-k*omega[1]*(1 + 0.5*sin(t))", "-k*omega[2]"]},
+            {"type": "expression", "frame": "space", "torque": ["0", "1e-5*exp(-t)", "0"]}]
+PROBLEMS = {  # name → (file, changes, spread of ω₀ (rad/s), per method: solver settings, sections added to the file)
     "free body (sweep_flip)": ("sweep_flip.toml", {}, 0.05, {
         "rk4": {"step": 1e-3}, "splitting": {"step": 1e-3}, "rkmk4": {"step": 1e-3}, "dmv": {"step": 5e-3, "order": 8},
-        "dop853": {}, "taylor": {}}),
+        "dop853": {}, "taylor": {}}, {}),
     "heavy top (lagrange, 10 s)": ("lagrange.toml", {"end": 10.0}, 0.5, {
-        "rk4": {"step": 1e-4}, "splitting": {"step": 1e-4}, "rkmk4": {"step": 1e-4}, "dop853": {}, "taylor": {}}),
+        "rk4": {"step": 1e-4}, "splitting": {"step": 1e-4}, "rkmk4": {"step": 1e-4}, "dop853": {}, "taylor": {}}, {}),
+    "free body + 2 formula loads": ("sweep_flip.toml", {}, 0.05, {"rk4": {"step": 1e-3}, "dop853": {}, "taylor": {}}, {"loads": FORMULAS}),
 }
 
 
 def scenes_of(name: str, method: str, cases: int) -> list:
-    file, changes, spread, settings = PROBLEMS[name]
-    raw = read_toml(CONFIGS / file)
+    file, changes, spread, settings, sections = PROBLEMS[name]
+    raw = {**read_toml(CONFIGS / file), **sections}
     raw.pop("sweep", None)
     raw.pop("checks", None)
     raw["time"].update(changes)
@@ -61,6 +67,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cases", type=int, default=128)
     parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--problems", default="", help="only the problems whose name contains this")
     args = parser.parse_args()
     threads = numba.get_num_threads()
     print(f"{args.cases} cases per ensemble call; numba threads available: {threads}")
@@ -68,7 +75,9 @@ def main() -> None:
               f"{'2 thr speed-up':>14} {'M body-steps/s':>14} {'cases/s':>9}")
     print(header)
     print("-" * len(header))
-    for name, (_, _, _, methods) in PROBLEMS.items():
+    for name, (_, _, _, methods, _) in PROBLEMS.items():
+        if args.problems not in name:
+            continue
         for method_name in methods:
             scenes = scenes_of(name, method_name, args.cases)
             method = get_method(method_name)
