@@ -216,3 +216,11 @@ def test_a_sign_change_through_a_pole_is_not_an_event():
     written as ω_y − c is one."""
     pole = flip_run("dop853", events=[{"name": "pole", "when": "1/(omega[1] - 5)"}, {"name": "root", "when": "omega[1] - 5"}]).events
     assert pole["pole"].count == 0 and pole["root"].count >= 8
+
+
+def test_a_root_at_the_start_of_its_sample_interval_is_an_occurrence():
+    """log(8.194 − t) is 0 at t = 7.194 s, a sample time at 500 samples/s: Brent's root lands on
+    the interval's start, τ = 0 (the state there is the sample's own; it raised KeyError before)."""
+    traj = flip_run("rk4", **{"solver.step": 1e-3, "time.sample_rate": 500.0, "time.end": 8.0},
+                    events=[{"name": "lg", "when": "log(8.194 - t)"}])
+    assert traj.events["lg"].count == 1 and abs(traj.events["lg"].t[0] - 7.194) <= 1e-12

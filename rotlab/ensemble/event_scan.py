@@ -12,7 +12,10 @@ before: ``scan_events`` returns that row and writes ``fault`` (``FAULT_*``; the 
     BETWEEN_FAULT     ``when`` not finite on the local solution in (t0, t1]
     RECORD_FAULT      a ``record`` formula not finite at the event, t0 (= t1) its time
 
-Terminal events are not taken here (``rotlab.ensemble.block.unsupported_scene``).
+Terminal events are not taken here (``rotlab.ensemble.block.unsupported_scene``).  A case that
+an event's formula stops reports the steps its kernel took, as its single run does; a fixed-step
+kernel's calls end every ``kernels.WINDOW`` samples, a single run's every ``kernel_status.WINDOW``,
+so past the first 4,096 samples the two counts of such a case may differ (its samples do not).
 """
 
 from __future__ import annotations
