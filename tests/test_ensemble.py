@@ -308,3 +308,26 @@ def test_a_detumbling_monte_carlo_runs_in_the_ensemble_kernels_but_not_on_the_gp
     run = run_cases(p)
     assert run.how.startswith("ensemble kernels (dop853") and [o.status for o in run.outcomes] == ["pass", "pass"]
     assert ensemble_plan_or_why(p, "cuda").startswith("a formula load (expression) is compiled for the CPU")
+
+
+def test_an_unexpected_error_in_one_cases_validation_costs_that_case_not_its_block(write, monkeypatch):
+    """(CPython 3.11's ast.parse, called from two Dask task threads at once, raised SystemError in
+    one case and lost its whole 4,096-case task; formulas are now parsed one at a time, and any
+    such error is the case's own "error" outcome, as case by case.)"""
+    import rotlab.scene.scene as scene_module
+    from rotlab.sweep.runner import ensemble_plan, run_ensemble_chunk
+
+    text = ('[body]\nprincipal_moments = [1.0, 2.0, 3.0]\n[initial]\nomega = [0.1, 1.0, 0.1]\n[time]\nend = 0.2\nsample_rate = 50\n'
+            '[solver]\nmethod = "rk4"\nstep = 1e-3\n[sweep]\n[sweep.parameters]\n"initial.omega[0]" = [0.1, 0.2, 0.3]\n')
+    p = plan(write("s.toml", text))
+    build = scene_module.build_scene
+
+    def flaky(scenario):
+        if scenario.initial.omega[0] == 0.2:
+            raise SystemError("AST constructor recursion depth mismatch")
+        return build(scenario)
+
+    monkeypatch.setattr(scene_module, "build_scene", flaky)
+    outcomes = run_ensemble_chunk(p.raw, p.base, p.source, list(p.cases), ensemble_plan(p), None)
+    assert [o.status for o in outcomes] == ["pass", "error", "pass"]
+    assert outcomes[1].message == "SystemError: AST constructor recursion depth mismatch"

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ast
 import math
+import threading
 
 from rotlab.core import opcodes as op
 
@@ -44,6 +45,12 @@ def check_constant_name(name: str) -> None:
         raise FormulaError(0, f"constant name '{name}' is taken by a variable, function or built-in constant: rename it")
 
 
+# one ast.parse at a time: CPython 3.11's conversion of the parsed tree to Python objects keeps its
+# recursion depth per interpreter, and two threads parsing at once (a Dask worker's two tasks of
+# sweep cases) raise "SystemError: AST constructor recursion depth mismatch"
+_PARSING = threading.Lock()
+
+
 def parse_formula(text: str, constants: dict[str, float], max_nodes: int = MAX_NODES) -> tuple[Program, int]:
     """(postfix program, stack depth it needs) of ``text``; ``FormulaError`` when it is not
     in the grammar (module docstring).  ``max_nodes``: a load kind's own formulas (not a
@@ -55,7 +62,8 @@ def parse_formula(text: str, constants: dict[str, float], max_nodes: int = MAX_N
     if not text.strip():
         raise FormulaError(0, "empty formula: write a formula (0 for a value that is always zero)")
     try:
-        tree = ast.parse(text.strip(), mode="eval")
+        with _PARSING:
+            tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
         raise FormulaError(exc.offset or 0, f"syntax error ({exc.msg})") from None
     except (RecursionError, MemoryError, ValueError):

@@ -301,11 +301,14 @@ def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cas
     outcomes: dict[int, CaseOutcome] = {}
     runnable: list[tuple[Case, Any]] = []
     for case in cases:
-        scenario = case_scenario(raw, base, case, source)
-        if isinstance(scenario, InputError):
-            outcomes[case.index] = CaseOutcome(case.index, case.values, "error", message=str(scenario))
-        else:
-            runnable.append((case, build_scene(scenario)))
+        try:
+            scenario = case_scenario(raw, base, case, source)
+            if isinstance(scenario, InputError):
+                outcomes[case.index] = CaseOutcome(case.index, case.values, "error", message=str(scenario))
+            else:
+                runnable.append((case, build_scene(scenario)))
+        except Exception as exc:  # (one case's, as ``run_sweep_cases`` reports it: not the whole block's)
+            outcomes[case.index] = CaseOutcome(case.index, case.values, "error", message=f"{type(exc).__name__}: {exc}")
     if runnable:
         scenes = [scene for _, scene in runnable]
         t = scenes[0].scenario.time.sample_times()
