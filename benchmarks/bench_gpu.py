@@ -80,7 +80,7 @@ class Outputs:
     """The ensemble's output arrays for ``cases`` cases (no case's samples kept)."""
 
     def __init__(self, cases: int) -> None:
-        self.counters = np.zeros((cases, 3), dtype=np.int64)
+        self.counters, self.clocks = np.zeros((cases, 3), dtype=np.int64), np.zeros((cases, 3))
         self.status, self.valid, self.steps = (np.zeros(cases, dtype=np.int64) for _ in range(3))
         self.last, self.acc = np.zeros((cases, 8)), np.zeros((cases, ob.ACC_COLUMNS))
         self.keep = np.full(cases, -1, dtype=np.int64)
@@ -110,7 +110,7 @@ def cpu_alone(kind: str, y0, times, substeps, model, extra, case, shared, applie
         rows[0] = y
         counted = np.zeros(3, dtype=np.int64)
         if kind == "dop853":
-            code, i = dop853_case(y, times, rows, RTOL, ATOL, MAX_STEPS, 1 << 18, model, counted)
+            code, i = dop853_case(y, times, rows, RTOL, ATOL, MAX_STEPS, 1 << 18, model, counted, np.zeros(3))
         else:
             advance = rk4_advance if kind == "rk4" else dmv_advance
             code, i, counted[0] = advance(y, times, rows, 1, substeps, MAX_STEPS, model, *extra)
@@ -181,17 +181,17 @@ def bench_dop853(cases: int, check: int, repeats: int) -> None:
     times = np.linspace(0.0, 10.0, 101)
     case, shared, applies = observe_inputs(y0, FORCES)
     out = Outputs(cases)
-    call = lambda: gpu.dop853_ensemble(y0, times, RTOL, ATOL, MAX_STEPS, 1 << 18, model, out.counters, case, shared, applies,  # noqa: E731
+    call = lambda: gpu.dop853_ensemble(y0, times, RTOL, ATOL, MAX_STEPS, 1 << 18, model, out.counters, out.clocks, case, shared, applies,  # noqa: E731
                                        FORCES, *out.tail())
     call()
     end_to_end = median_time(call, repeats)
     d = {k: cuda.to_device(v) for k, v in dict(y0=y0, times=times, case=case, shared=shared, applies=applies, forces=FORCES,
-                                                counters=out.counters, status=out.status, valid=out.valid, last=out.last, acc=out.acc,
+                                                counters=out.counters, clocks=out.clocks, status=out.status, valid=out.valid, last=out.last, acc=out.acc,
                                                 keep=out.keep, kept=out.kept, kept_t=out.kept_t, kept_count=out.kept_count).items()}
     grid = cuda.device_array((cases, times.shape[0], 8))
     launch = lambda: gpu._dop853_kernel[gpu.blocks(cases), gpu.THREADS](  # noqa: E731
-        0, d["y0"], d["times"], grid, RTOL, ATOL, MAX_STEPS, 1 << 18, gpu._tuple_to_device(model), d["counters"], d["case"], d["shared"],
-        d["applies"], d["forces"], d["status"], d["valid"], d["last"], d["acc"], d["keep"], 1, d["kept"], d["kept_t"], d["kept_count"])
+        0, d["y0"], d["times"], grid, RTOL, ATOL, MAX_STEPS, 1 << 18, gpu._tuple_to_device(model), d["counters"], d["clocks"], d["case"],
+        d["shared"], d["applies"], d["forces"], d["status"], d["valid"], d["last"], d["acc"], d["keep"], 1, d["kept"], d["kept_t"], d["kept_count"])
     with gpu._compiling():  # (a launch that compiled anew would get the same options)
         kernel_only = median_time(launch, repeats)
     k = min(check, cases)

@@ -331,3 +331,22 @@ def test_an_unexpected_error_in_one_cases_validation_costs_that_case_not_its_blo
     outcomes = run_ensemble_chunk(p.raw, p.base, p.source, list(p.cases), ensemble_plan(p), None)
     assert [o.status for o in outcomes] == ["pass", "error", "pass"]
     assert outcomes[1].message == "SystemError: AST constructor recursion depth mismatch"
+
+
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_an_adaptive_case_that_cannot_finish_stops_as_its_single_run_stops(method):
+    """A torque that switches sign with ω_x chatters about ω_x = 0 and the adaptive step
+    collapses: each case stops after its first whole chunk of steps whose pace cannot finish
+    (``stall_needs``), with its single run's message (where, the pace, the steps it would take)
+    and steps, instead of grinding through solver.max_steps in the kernel."""
+    from rotlab import api
+
+    loads = [{"type": "expression", "frame": "body", "torque": ["-1e-5*sign(omega[0])", "0", "0"]}]
+    scenes = _scenes("sweep_flip.toml", 10.0, method, {"rtol": 1e-10}, loads=loads,
+                     time={"end": 10.0, "sample_rate": 10}, initial={"omega": [0.01, 0.0, 0.0]})
+    m, settings, t = get_method(method), Settings.of(scenes[0].scenario.solver), scenes[0].scenario.time.sample_times()
+    block = run_block(scenes, m, settings, t, list(range(CASES)), 1, [None] * CASES)
+    for k, scene in enumerate(scenes):
+        traj = api.run_scene(scene, plan=(m, "alone", settings, t))
+        assert traj.stats.failure is not None and block.failure[k] == traj.stats.failure
+        assert block.steps[k] == traj.stats.steps and block.valid[k] == traj.t.shape[0] < t.shape[0]

@@ -216,7 +216,8 @@ def test_an_adaptive_run_whose_steps_collapse_stops_by_itself(method):
 
 
 def test_stall_rule_judges_the_pace_against_the_steps_left():
-    from rotlab.methods.stepping import STALL_FACTOR, stall_message
+    from rotlab.core.kernel_status import STALL_FACTOR
+    from rotlab.methods.stepping import stall_message
 
     assert stall_message(0.0, 1e-6, 1000, 10.0, 10**9, 10**9) is None  # 1e-9 s a step: 1e10 steps, 10× the budget: may still speed up
     words = stall_message(0.0, 1e-6, 1000, 10.0, 10**8 // STALL_FACTOR, 10**9)

@@ -10,11 +10,15 @@ machine code keeps more calls out of line than the kernel's own loop).
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
 from rotlab.core.dynamics import all_finite, store_row
 
 OK, NONFINITE = 0, 1  # a kernel's status
+STALLED = 4  # an adaptive run's pace cannot reach its end (``stall_needs``; its driver's verdict, not a kernel's)
+STALL_FACTOR = 10  # an adaptive run whose pace needs this many times the steps it has left stops (``stall_needs``)
 WINDOW = 1 << 14  # samples per window when streaming (8 doubles each: 1 MB)
 
 
@@ -25,3 +29,14 @@ def end_sample(y, out, i):
         return NONFINITE
     store_row(out, i, y)
     return OK
+
+
+@njit(cache=True)
+def stall_needs(t_from, t_to, taken, t_end, steps_left):
+    """After a whole chunk of ``taken`` steps that advanced t from ``t_from`` to ``t_to``: the
+    steps the rest of the span to ``t_end`` needs at that pace, when it is more than
+    ``STALL_FACTOR`` times ``steps_left`` (the run cannot finish: a step size collapsed at a
+    singular or chattering load); 0 while it can finish."""
+    pace = (t_to - t_from) / taken
+    needed = (t_end - t_to) / pace if pace > 0.0 else math.inf
+    return needed if needed > STALL_FACTOR * steps_left else 0.0

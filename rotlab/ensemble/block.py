@@ -20,13 +20,13 @@ import numpy as np
 from numba import parallel_chunksize
 
 from rotlab.checks import period_of
-from rotlab.core.kernel_status import NONFINITE, OK
+from rotlab.core.kernel_status import NONFINITE, OK, STALLED
 from rotlab.ensemble import observe as ob
 from rotlab.ensemble.event_scan import BETWEEN_FAULT, FAULT_COLUMNS, FAULT_EVENT, FAULT_FORMULA, FAULT_KIND, FAULT_T0, FAULT_T1, \
     FOUND_COLUMNS, NO_FAULT, EventInputs
 from rotlab.errors import InputError, RunFailure, first_line
 from rotlab.methods.base import Settings
-from rotlab.methods.stepping import CHUNK_STEPS, budget_message, nonfinite_after, step_floor_message
+from rotlab.methods.stepping import CHUNK_STEPS, budget_message, nonfinite_after, stall_message, step_floor_message
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import reference_of, runs_of
 
@@ -34,32 +34,32 @@ if TYPE_CHECKING:
     from rotlab.events import CompiledEvents
 
 
-def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, inputs: tuple,
-            events: tuple, outputs: tuple, device: str = "cpu") -> dict:
+def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, clocks: np.ndarray,
+            inputs: tuple, events: tuple, outputs: tuple, device: str = "cpu") -> dict:
     head = (y0, t, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS)
     if device == "cuda":
         from rotlab.ensemble.gpu import dop853_ensemble
 
-        dop853_ensemble(*head, scene.model, counters, *inputs, *outputs)
+        dop853_ensemble(*head, scene.model, counters, clocks, *inputs, *outputs)
     else:
         from rotlab.ensemble.kernels import dop853_ensemble, parallel_model
 
-        dop853_ensemble(*head, *parallel_model(scene.model), counters, *inputs, *events, *outputs)
+        dop853_ensemble(*head, *parallel_model(scene.model), counters, clocks, *inputs, *events, *outputs)
     return {"rtol": settings.rtol, "atol": settings.atol}
 
 
-def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, inputs: tuple,
-            events: tuple, outputs: tuple, device: str = "cpu") -> dict:
+def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, clocks: np.ndarray,
+            inputs: tuple, events: tuple, outputs: tuple, device: str = "cpu") -> dict:
     from rotlab.ensemble.kernels import parallel_model, taylor_ensemble
 
     order = method.checked_order(settings)
     taylor_ensemble(y0, t, order, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, *parallel_model(scene.model),
-                    *method.constants(scene), counters, *inputs, *events, *outputs)
+                    *method.constants(scene), counters, clocks, *inputs, *events, *outputs)
     return {"order": order, "rtol": settings.rtol, "atol": settings.atol}
 
 
 # adaptive methods with an ensemble kernel, each run as its single run is (fixed-step ones all have one):
-# run(scene, method, settings, t, y0, counters, (case, shared, applies, forces), (events, found, fault) (the CPU's only),
+# run(scene, method, settings, t, y0, counters, clocks, (case, shared, applies, forces), (events, found, fault) (the CPU's only),
 # (status, valid, last, acc, keep, stride, kept, kept_t, kept_count), device=…) → the run's details
 ADAPTIVE_KERNELS = {"dop853": _dop853, "taylor": _taylor}
 # the methods whose kernels compile for an NVIDIA GPU (``rotlab.ensemble.gpu``; splitting's and taylor's
@@ -249,6 +249,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     y0 = np.array([s.state0 for s in scenes])
     status, valid = np.zeros(b, dtype=np.int64), np.zeros(b, dtype=np.int64)
     last, acc = y0.copy(), np.zeros((b, ob.ACC_COLUMNS))
+    clocks = np.zeros((b, 3))  # an adaptive case's integrator time, and a stalled chunk's start and steps (``kernels.dop853_case``)
     where = np.full(b, -1, dtype=np.int64)
     where[keep] = np.arange(len(keep))
     rows = math.ceil(n / stride) + 1
@@ -259,7 +260,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
         counters = np.zeros((b, 3), dtype=np.int64)
         try:
             with parallel_chunksize(1), _gpu_errors(device):  # (cases of unequal cost: each thread takes the next case)
-                run = ADAPTIVE_KERNELS[method.name](scene, method, settings, t, y0, counters, (case, shared, applies, forces),
+                run = ADAPTIVE_KERNELS[method.name](scene, method, settings, t, y0, counters, clocks, (case, shared, applies, forces),
                                                    (events, found, fault), (status, valid, last, acc, where, stride, kept, kept_t, kept_count),
                                                    device=device)
         except InputError as exc:
@@ -293,6 +294,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
                                                 method.kernel_args(scene, order), *inputs, events, found, fault, *outputs)
         rejected = np.zeros(b, dtype=np.int64)
         evaluations = steps * method.evaluations_per_step(scene, order)
+        clocks[:, 0] = t[np.maximum(valid, 1) - 1]  # (a fixed step's run ends at a sample)
     for k in range(b):
         if failure[k] is not None:
             continue
@@ -301,10 +303,13 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
         elif status[k] == NONFINITE:
             failure[k] = _formula_fault(method, scenes[k], t, settings) or nonfinite_after(float(t[valid[k] - 1]),
                                                                                            float(t[min(valid[k], n - 1)]), last[k])
-        elif status[k] != OK:  # (the kernels keep the integrator's time to themselves: the last sample says where)
-            failure[k] = step_floor_message(f"after t = {t[valid[k] - 1]:.9g} s")
+        elif status[k] == STALLED:
+            failure[k] = stall_message(clocks[k, 1], clocks[k, 0], int(clocks[k, 2]), float(t[n - 1]),
+                                       settings.max_steps - int(steps[k] + rejected[k]), settings.max_steps)
+        elif status[k] != OK:
+            failure[k] = step_floor_message(f"at t = {clocks[k, 0]:.9g} s")
         elif valid[k] < n:
-            failure[k] = budget_message(settings.max_steps, float(t[valid[k] - 1]))
+            failure[k] = budget_message(settings.max_steps, float(clocks[k, 0]))
     ran = valid > 0
     folded = ob.max_drifts(acc, case)
     drift = {name: np.where(ran, folded[:, k], np.nan) for k, name in enumerate(ob.INVARIANTS) if applies[k]}

@@ -189,8 +189,8 @@ def _fixed_step_kernel(advance):
 
 
 @_jit
-def _dop853_kernel(first, y0, times, grid, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces, status,
-                   valid, last, acc, keep, stride, kept, kept_t, kept_count):
+def _dop853_kernel(first, y0, times, grid, rtol, atol, max_steps, chunk, model, counters, clocks, case, shared, applies, forces,
+                   status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """Cases first … first + len(grid) − 1 of ``kernels.dop853_ensemble``, case b's samples in
     ``grid[b − first]``."""
     b = first + cuda.grid(1)
@@ -199,16 +199,17 @@ def _dop853_kernel(first, y0, times, grid, rtol, atol, max_steps, chunk, model, 
     rows = grid[b - first]
     y = cuda.local.array(STATE_SIZE, types.float64)
     counted = cuda.local.array(3, types.int64)
+    clock = cuda.local.array(3, types.float64)
     folded = cuda.local.array(ACC_COLUMNS, types.float64)
     count = cuda.local.array(1, types.int64)
     for m in range(STATE_SIZE):
         y[m] = y0[b, m]
     for m in range(3):
-        counted[m] = 0
+        counted[m], clock[m] = 0, 0.0
     store_row(rows, 0, y)
-    code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted)
+    code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock)
     for m in range(3):
-        counters[b, m] = counted[m]
+        counters[b, m], clocks[b, m] = counted[m], clock[m]
     report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                  kept_count, folded, count)
 
@@ -270,12 +271,12 @@ def cases_per_batch(cases: int, samples: int) -> int:
     return max(1, min(cases, int(free * MEMORY_FRACTION) // (samples * STATE_SIZE * 8)))
 
 
-def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, case, shared, applies, forces, status, valid, last,
-                    acc, keep, stride, kept, kept_t, kept_count) -> None:
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, clocks, case, shared, applies, forces, status, valid,
+                    last, acc, keep, stride, kept, kept_t, kept_count) -> None:
     """``kernels.dop853_ensemble`` on the GPU (the outputs written to the host arrays given)."""
     targets.enable_cuda()
     inputs = _to_device({"y0": y0, "times": times, "case": case, "shared": shared, "applies": applies, "forces": forces, "keep": keep})
-    outputs = {"counters": counters, "status": status, "valid": valid, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
+    outputs = {"counters": counters, "clocks": clocks, "status": status, "valid": valid, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
                "kept_count": kept_count}
     out = _to_device(outputs)
     device_model = _tuple_to_device(model)
@@ -285,7 +286,7 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, ca
     with _compiling():
         for first in range(0, b, batch):
             _dop853_kernel[blocks(min(batch, b - first)), THREADS](
-                first, inputs["y0"], inputs["times"], grid, rtol, atol, max_steps, chunk, device_model, out["counters"],
+                first, inputs["y0"], inputs["times"], grid, rtol, atol, max_steps, chunk, device_model, out["counters"], out["clocks"],
                 inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["last"],
                 out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     del grid

@@ -26,7 +26,8 @@ from numba.extending import overload
 from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
-from rotlab.core.kernel_status import OK, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
+from rotlab.core.kernel_status import OK, STALLED, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
+from rotlab.core.kernel_status import stall_needs
 from rotlab.ensemble.event_scan import event_scratch, open_events, scan_events
 from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
@@ -189,32 +190,51 @@ def report_fixed_step(b, code, i, taken, y, times, folded, count, status, valid,
 @njit(cache=True)
 def _start_whole(y0, b, n, model, expressions, counts):
     """Case b's state, its grid of ``n`` rows (row 0 its first sample), its own copy of the model,
-    its own ``counts`` counters and the scratch of ``report_whole`` (none shares a cache line or a
-    reference count with another case's: a row of ``acc`` shares cache lines with its neighbours')."""
+    its own ``counts`` counters, the scratch of ``report_whole`` and its clock (``dop853_case``)
+    (none shares a cache line or a reference count with another case's: a row of ``acc`` shares
+    cache lines with its neighbours')."""
     y = y0[b].copy()
     rows = np.empty((n, STATE_SIZE))
     store_row(rows, 0, y)
-    return y, rows, own_model(model, expressions), np.zeros(counts, dtype=np.int64), np.empty(ACC_COLUMNS), np.zeros(1, dtype=np.int64)
+    return (y, rows, own_model(model, expressions), np.zeros(counts, dtype=np.int64), np.empty(ACC_COLUMNS), np.zeros(1, dtype=np.int64),
+            np.zeros(3))
 
 
 @njit(cache=True)
-def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted):
+def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock):
     """One ``dop853`` case from ``rows[0]`` = y over the sample grid ``times``, as its single run
     steps (in calls of ``chunk`` attempts on ``stepping.run_chunks``'s windows: a step stops at a
-    window's end): (status, samples made); ``counted``: accepted, rejected, evaluations."""
+    window's end) and stops (``STALLED``: after a whole chunk whose pace cannot finish, as
+    ``run_chunks`` judges it): (status, samples made); ``counted``: accepted, rejected,
+    evaluations; ``clock``: the integrator's time, and a stalled chunk's start and steps."""
     n = times.shape[0]
     code, i, t, h, attempts, lo, hi = OK, 1, times[0], 0.0, 0, 0, min(n, RUN_WINDOW + 1)
     while i < n and attempts < max_steps:
-        before = counted[0] + counted[1]
-        code, j, t, h = dop853_advance(y, t, h, times[lo:hi], rows[lo:hi], i - lo, times[hi - 1], rtol, atol,
-                                       min(chunk, max_steps - attempts), model, counted)
+        before, start, budget = counted[0] + counted[1], t, min(chunk, max_steps - attempts)
+        code, j, t, h = dop853_advance(y, t, h, times[lo:hi], rows[lo:hi], i - lo, times[hi - 1], rtol, atol, budget, model, counted)
         i = lo + j
-        attempts += counted[0] + counted[1] - before
+        taken = counted[0] + counted[1] - before
+        attempts += taken
         if code != OK:
+            break
+        if _stalled(start, t, taken, budget, chunk, attempts, max_steps, times[n - 1], clock):
+            code = STALLED
             break
         if i == hi < n:
             lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
+    clock[0] = t
     return code, i
+
+
+@njit(cache=True)
+def _stalled(start, t, taken, budget, chunk, steps, max_steps, t_end, clock):
+    """A whole chunk of ``taken`` steps from ``start`` to ``t`` whose pace cannot finish with the
+    steps left (``stall_needs``, judged as ``stepping.run_chunks`` judges it); its start and
+    steps go to ``clock``."""
+    if not (taken >= budget == chunk and steps < max_steps) or stall_needs(start, t, taken, t_end, max_steps - steps) == 0.0:
+        return False
+    clock[1], clock[2] = start, taken
+    return True
 
 
 @njit(cache=True)
@@ -247,51 +267,59 @@ def scan_whole(method, solver, model, events, times, rows, i, code, found, fault
 
 
 @njit(cache=True, parallel=True)
-def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions, counters, case, shared, applies, forces, events, found, fault,
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions, counters, clocks, case, shared, applies, forces, events, found, fault,
                     status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
-    """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations)."""
+    """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations;
+    ``clocks[b]``: ``dop853_case``'s clock)."""
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, expressions, 3)
+        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, times.shape[0], model, expressions, 3)
         solver, watch = (rtol, atol, max_steps), event_scratch(events, STATE_SIZE)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
-            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted)
+            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted, clock)
             i = scan_whole("dop853", solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
         for m in range(3):
-            counters[b, m] = counted[m]
+            counters[b, m], clocks[b, m] = counted[m], clock[m]
         report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count)
 
 
 @njit(cache=True)
-def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, T, lever_force, flags, counted):
+def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, T, lever_force, flags, counted, clock):
     """One ``taylor`` case from ``rows[0]`` = y over the sample grid ``times``, as its single run
-    steps (``dop853_case``): (status, samples made); ``counted[0]``: steps."""
+    steps and stops (``dop853_case``): (status, samples made); ``counted[0]``: steps."""
     n = times.shape[0]
     code, i, t, lo, hi = OK, 1, times[0], 0, min(n, RUN_WINDOW + 1)
     while i < n and counted[0] < max_steps:
-        code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, min(chunk, max_steps - counted[0]),
-                                    model, c0, T, lever_force, flags, counted)
+        before, start, budget = counted[0], t, min(chunk, max_steps - counted[0])
+        code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, budget, model, c0, T, lever_force, flags,
+                                    counted)
         i = lo + j
         if code != OK:
             break
+        if _stalled(start, t, counted[0] - before, budget, chunk, counted[0], max_steps, times[n - 1], clock):
+            code = STALLED
+            break
         if i == hi < n:
             lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
+    clock[0] = t
     return code, i
 
 
 @njit(cache=True, parallel=True)
-def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expressions, c0, T, lever_force, flags, counters, case, shared, applies,
-                    forces, events, found, fault, status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
+def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expressions, c0, T, lever_force, flags, counters, clocks, case,
+                    shared, applies, forces, events, found, fault, status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``taylor`` at ``order`` (its ``kernel_constants`` c0, T,
-    lever_force, flags; ``counters[b, 0]``: steps)."""
+    lever_force, flags; ``counters[b, 0]``: steps; ``clocks[b]``: ``taylor_case``'s clock)."""
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count = _start_whole(y0, b, times.shape[0], model, expressions, 1)
+        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, times.shape[0], model, expressions, 1)
         solver, watch = (order, rtol, atol, max_steps, c0, T, lever_force, flags), event_scratch(events, STATE_SIZE)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (as ``dop853_ensemble``)
-            code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted)
+            code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted, clock)
             i = scan_whole("taylor", solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
         counters[b, 0] = counted[0]
+        for m in range(3):
+            clocks[b, m] = clock[m]
         report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count)

@@ -31,7 +31,7 @@ import numpy as np
 from rotlab import interrupts
 from rotlab.core import faults
 from rotlab.core.dynamics import STATE_SIZE
-from rotlab.core.kernel_status import WINDOW
+from rotlab.core.kernel_status import WINDOW, stall_needs
 from rotlab.methods.base import ProgressCallback, Solution
 
 if TYPE_CHECKING:
@@ -44,7 +44,6 @@ CHUNK_STEPS = 1 << 18
 # steps per kernel call while a watch that may end the run sees the rows (a terminal event): the run
 # ends at most this many steps past it; a call's budget ends between two steps, so the steps are the same
 WATCHED_STEPS = 1 << 12
-STALL_FACTOR = 10  # an adaptive run whose pace needs this many times the steps it has left stops (``stall_message``)
 
 
 class RowConsumer(Protocol):
@@ -233,10 +232,10 @@ def stall_message(t_from: float, t_to: float, taken: int, t_end: float, steps_le
     chunk's pace ((t_to − t_from) / taken per step) the rest of the span needs more than
     ``STALL_FACTOR`` times the steps left in ``solver.max_steps`` (a step size collapsed at a
     singular or chattering load, or an absurd scene); None while it can."""
-    pace = (t_to - t_from) / taken
-    needed = (t_end - t_to) / pace if pace > 0.0 else float("inf")
-    if needed <= STALL_FACTOR * steps_left:
+    needed = stall_needs(t_from, t_to, taken, t_end, steps_left)
+    if needed == 0.0:
         return None
+    pace = (t_to - t_from) / taken
     return (f"no progress: {taken:,} steps advanced t only from {t_from:.9g} s to {t_to:.9g} s (mean step {pace:.3g} s); "
             f"the remaining {t_end - t_to:.6g} s would take ~{needed:.2g} steps, beyond solver.max_steps = {max_steps:,} "
             "(a load that is singular or switches back and forth there, a stiff scene, or tolerances too tight)")
