@@ -215,26 +215,29 @@ def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, cl
         i = lo + j
         taken = counted[0] + counted[1] - before
         attempts += taken
-        if code != OK:
+        code, ended, lo, hi = _after_call(code, start, t, taken, budget, chunk, attempts, max_steps, times, i, lo, hi, clock)
+        if ended:
             break
-        if _stalled(start, t, taken, budget, chunk, attempts, max_steps, times[n - 1], clock):
-            code = STALLED
-            break
-        if i == hi < n:
-            lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
     clock[0] = t
     return code, i
 
 
 @njit(cache=True)
-def _stalled(start, t, taken, budget, chunk, steps, max_steps, t_end, clock):
-    """A whole chunk of ``taken`` steps from ``start`` to ``t`` whose pace cannot finish with the
-    steps left (``stall_needs``, judged as ``stepping.run_chunks`` judges it); its start and
-    steps go to ``clock``."""
-    if not (taken >= budget == chunk and steps < max_steps) or stall_needs(start, t, taken, t_end, max_steps - steps) == 0.0:
-        return False
-    clock[1], clock[2] = start, taken
-    return True
+def _after_call(code, start, t, taken, budget, chunk, steps, max_steps, times, i, lo, hi, clock):
+    """After an adaptive case's call of ``taken`` steps from ``start`` to ``t`` (``steps`` in
+    all), samples made to i on the window [lo, hi): (status, whether the case ends, the next
+    window).  It ends on a kernel's status, or ``STALLED`` after a whole chunk whose pace cannot
+    finish with the steps left (``stall_needs``, judged as ``stepping.run_chunks`` judges it: its
+    start and steps go to ``clock``)."""
+    n = times.shape[0]
+    if code != OK:
+        return code, True, lo, hi
+    if taken >= budget == chunk and steps < max_steps and stall_needs(start, t, taken, times[n - 1], max_steps - steps) != 0.0:
+        clock[1], clock[2] = start, taken
+        return STALLED, True, lo, hi
+    if i == hi < n:
+        lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
+    return code, False, lo, hi
 
 
 @njit(cache=True)
@@ -295,13 +298,9 @@ def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, 
         code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, budget, model, c0, T, lever_force, flags,
                                     counted)
         i = lo + j
-        if code != OK:
+        code, ended, lo, hi = _after_call(code, start, t, counted[0] - before, budget, chunk, counted[0], max_steps, times, i, lo, hi, clock)
+        if ended:
             break
-        if _stalled(start, t, counted[0] - before, budget, chunk, counted[0], max_steps, times[n - 1], clock):
-            code = STALLED
-            break
-        if i == hi < n:
-            lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
     clock[0] = t
     return code, i
 
