@@ -129,6 +129,13 @@ def store_row(out, i, y):
 
 
 @njit(cache=True)
+def store_vector(out, y):
+    """out[:] = y, element by element (as ``store_row``)."""
+    for m in range(y.shape[0]):
+        out[m] = y[m]
+
+
+@njit(cache=True)
 def all_finite(y):
     for k in range(y.shape[0]):
         if not math.isfinite(y[k]):

@@ -13,8 +13,10 @@ cannot cache.
 
 from __future__ import annotations
 
-from numba import njit, types
+from numba import types
 from numba.extending import overload
+
+from rotlab.core.dynamics import store_vector
 
 
 def advance_of(method, y, times, rows, i, substeps, budget, model, extra):
@@ -36,13 +38,6 @@ def _advance_of(method, y, times, rows, i, substeps, budget, model, extra):
     return call
 
 
-@njit(cache=True)
-def _copy(a, b):
-    """b ← a, element by element (a slice assignment would compile NumPy's shape-mismatch message)."""
-    for m in range(a.shape[0]):
-        b[m] = a[m]
-
-
 def local_state(method, solver, model, y0, t0, t1, scratch):
     """scratch.y ← Φ(y0, t0, t1) of the method named ``method`` (a literal string; module docstring)."""
     raise NotImplementedError("compiled code only")
@@ -57,7 +52,7 @@ def _local_state(method, solver, model, y0, t0, t1, scratch):
         from rotlab.core.dop853 import dop853_local  # (SciPy's coefficients: imported when a kernel compiles)
 
         def dop853(method, solver, model, y0, t0, t1, scratch):
-            _copy(y0, scratch.y)
+            store_vector(scratch.y, y0)
             rtol, atol, max_steps = solver
             dop853_local(scratch.y, t0, t1, scratch.grid, scratch.out, rtol, atol, max_steps, model, scratch.counters)
 
@@ -66,7 +61,7 @@ def _local_state(method, solver, model, y0, t0, t1, scratch):
         from rotlab.core.taylor import taylor_local
 
         def taylor(method, solver, model, y0, t0, t1, scratch):
-            _copy(y0, scratch.y)
+            store_vector(scratch.y, y0)
             order, rtol, atol, max_steps, c0, T, lever_force, flags = solver
             taylor_local(scratch.y, t0, t1, scratch.grid, scratch.out, order, rtol, atol, max_steps, model, c0, T, lever_force, flags,
                          scratch.counters)
@@ -74,7 +69,7 @@ def _local_state(method, solver, model, y0, t0, t1, scratch):
         return taylor
 
     def fixed_step(method, solver, model, y0, t0, t1, scratch):  # the run's substeps over [t0, t1] (``FixedStep.local_solution``)
-        _copy(y0, scratch.y)
+        store_vector(scratch.y, y0)
         scratch.grid[0], scratch.grid[1] = t0, t1
         substeps, extra = solver
         advance_of(method, scratch.y, scratch.grid, scratch.out, 1, substeps, substeps, model, extra)
