@@ -129,7 +129,7 @@ def scan_events(method, solver, model, events, times, rows, stop, found, fault, 
     test per row and event of what it reads cost ~60)."""
     if events is None:
         return stop
-    fn, ex_rows, axes, axes_q, moments, direction, records, rates_only = events
+    fn, ex_rows, axes, axes_q, moments, direction, _, rates_only = events
     g, g_now, values = s.g, s.g_now, s.values
     for r0 in range(1, stop, BLOCK):
         r1 = min(stop, r0 + BLOCK)

@@ -26,8 +26,7 @@ from numba.extending import overload
 from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
-from rotlab.core.kernel_status import OK, STALLED, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
-from rotlab.core.kernel_status import stall_needs
+from rotlab.core.kernel_status import OK, STALLED, stall_needs, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
 from rotlab.ensemble.event_scan import event_scratch, open_events, scan_events
 from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
