@@ -249,3 +249,29 @@ def test_the_kernels_are_compiled_for_the_cpus_rounding(monkeypatch):
         pass
 
     assert gpu._jit(kernel).targetoptions["lto"] is False
+
+
+def test_a_gpu_result_that_is_not_the_cpus_stops_the_sweep_in_one_line(tmp_path):
+    """Each GPU call's cases 0, b/3, 2b/3 and b − 1 are run again on the CPU (``cross_check``):
+    a device result that is not the CPU's (here one case's last state corrupted by hand after the
+    kernel, as a wrong device compilation would leave it: an H100 and an H200 gave such garbage
+    for dop853 on general.toml) ends ``rotlab sweep`` with one line naming the sweep's case, exit 1;
+    the same sweep uncorrupted passes (the simulator's GPU is the CPU bit for bit)."""
+    config = _small_sweep(tmp_path)
+    failing = _python(f"""
+        import sys
+        from rotlab.ensemble import gpu
+        run = gpu.fixed_step_ensemble
+        def corrupted(*args):
+            run(*args)
+            args[14][4, :4] = 0.0  # ``last`` of the block's case 4 (of 12: one call): Λ = 0, as the device gave
+        gpu.fixed_step_ensemble = corrupted
+        from rotlab.cli import main
+        sys.argv = ["rotlab", "sweep", {str(config)!r}, "--device", "cuda", "-o", {str(tmp_path / "out")!r}]
+        main()
+    """, SIMULATOR)
+    lines = failing.stderr.strip().splitlines()
+    assert failing.returncode == 1 and len(lines) == 1, failing.stderr[-2000:]
+    assert lines[0].startswith("rotlab: error: the GPU's result for case 4 differs from the CPU's (last state [0, 0, 0, 0, "), lines
+    assert lines[0].endswith("run this sweep on the CPU (--device cpu)"), lines
+    assert not (tmp_path / "out" / "results.csv").exists()

@@ -22,6 +22,7 @@ from numba import parallel_chunksize
 from rotlab.checks import period_of
 from rotlab.core.kernel_status import NONFINITE, OK, STALLED
 from rotlab.ensemble import observe as ob
+from rotlab.ensemble.cross_check import GpuDisagreement, checked_cases, disagreement
 from rotlab.ensemble.event_scan import BETWEEN_FAULT, FAULT_COLUMNS, FAULT_EVENT, FAULT_FORMULA, FAULT_KIND, FAULT_T0, FAULT_T1, \
     FOUND_COLUMNS, NO_FAULT, EventInputs
 from rotlab.errors import InputError, RunFailure, first_line
@@ -96,6 +97,7 @@ class BlockResult:
     evaluations: np.ndarray  # right-hand side evaluations
     failure: list[str | None]
     details: list[dict[str, object]]
+    last: np.ndarray  # (B, 8): each case's last valid state (principal frame)
     flip_period: np.ndarray  # s, NaN where fewer than MIN_REVERSALS
     reversals: np.ndarray
     max_nutation_deg: np.ndarray
@@ -231,10 +233,12 @@ def _gpu_errors(device: str) -> Iterator[None]:
 
 
 def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, keep: list[int], stride: int,
-              given_axes: list[str | None], device: str = "cpu") -> BlockResult | InputError:
+              given_axes: list[str | None], device: str = "cpu", cross_check: bool = True) -> BlockResult | InputError:
     """Every scene of ``scenes`` (one body and loads) with ``method`` at ``settings`` over the sample
     times ``t``; the samples of cases ``keep`` (positions in ``scenes``) kept every ``stride``-th;
-    on ``device`` "cpu" (every core numba may use) or "cuda" (``rotlab.ensemble.gpu``).
+    on ``device`` "cpu" (every core numba may use) or "cuda" (``rotlab.ensemble.gpu``; some of its
+    cases run again on the CPU and compared, ``rotlab.ensemble.cross_check``, unless ``cross_check``
+    is False: for a diagnosis comparing the devices themselves, benchmarks/gpu_agreement.py).
     A fixed step that a case cannot take is that case's failure; an input error that concerns
     every case (an order the method does not offer) is returned."""
     from rotlab.ensemble import kernels
@@ -317,8 +321,24 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     period = period_of(acc[:, ob.ACC_FIRST], acc[:, ob.ACC_LAST], reversals)
     nutation = np.where(ran, np.degrees(np.arccos(np.where(ran, acc[:, ob.ACC_MIN_COS], 1.0))), np.nan)
     kept_rows = {k: (kept_t[where[k], :kept_count[k]].copy(), kept[where[k], :kept_count[k]].copy()) for k in keep if ran[k]}
-    return BlockResult(status, valid, steps, rejected, evaluations, failure, details, period, reversals, nutation, drift,
-                       event_observables(compiled, found, ran), kept_rows)
+    result = BlockResult(status, valid, steps, rejected, evaluations, failure, details, last, period, reversals, nutation, drift,
+                         event_observables(compiled, found, ran), kept_rows)
+    if device == "cuda" and cross_check:
+        _check_on_the_cpu(result, scenes, method, settings, t, given_axes)
+    return result
+
+
+def _check_on_the_cpu(result: BlockResult, scenes: list[Scene], method, settings: Settings, t: np.ndarray,
+                      given_axes: list[str | None]) -> None:
+    """A GPU block's ``checked_cases`` run again on the CPU; ``GpuDisagreement`` where one's
+    result is not the GPU's (``rotlab.ensemble.cross_check``)."""
+    positions = checked_cases(len(scenes))
+    cpu = run_block([scenes[k] for k in positions], method, settings, t, [], 1, [given_axes[k] for k in positions])
+    if isinstance(cpu, InputError):  # (the GPU ran these cases: the CPU takes them)
+        raise cpu
+    found = disagreement(result, cpu, positions)
+    if found is not None:
+        raise GpuDisagreement(*found)
 
 
 def _formula_fault(method, scene: Scene, t: np.ndarray, settings: Settings) -> str | None:

@@ -27,7 +27,7 @@ import numpy as np
 
 from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, read_toml
-from rotlab.errors import InputError
+from rotlab.errors import InputError, RunFailure
 from rotlab.parallel import Stopped, TaskEnd, TaskRun, WarmWorkers, run_tasks, signals_raise_stopped
 from rotlab.sweep.cases import Case, SweepPlan, case_scenario, check_overlaps, check_path, expand
 from rotlab.sweep.shared_choice import SharedChoice, initial_only, shared_choice
@@ -294,6 +294,7 @@ def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cas
     """One ensemble kernel call for ``cases`` (validated here: an invalid case is an "error"
     outcome); importable by Dask workers, each task a block of cases."""
     from rotlab.ensemble.block import run_block
+    from rotlab.ensemble.cross_check import GpuDisagreement, message
     from rotlab.methods.base import Solution
     from rotlab.scene.scene import build_scene
     from rotlab.trajectory import RunStats, build_trajectory
@@ -315,7 +316,10 @@ def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cas
         stride = max(1, math.ceil(t.shape[0] / COMPARISON_SAMPLES))
         keep = [k for k, (case, _) in enumerate(runnable) if compared is None or case.index in compared]
         given = [None if s.scenario.checks.flip_period is None else s.scenario.checks.flip_period.axis for s in scenes]
-        block = run_block(scenes, plan.method, plan.settings, t, keep, stride, given, device=plan.device)
+        try:
+            block = run_block(scenes, plan.method, plan.settings, t, keep, stride, given, device=plan.device)
+        except GpuDisagreement as exc:  # (named by the sweep's case number)
+            raise RunFailure(message(f"case {runnable[exc.position][0].index}", exc.what)) from None
         if isinstance(block, InputError):
             raise block
         name = plan.method.name
@@ -426,7 +430,8 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         if stopped is not None:
             note = f"not finished (the sweep received {signal.Signals(stopped).name})"
             deliver([CaseOutcome(case.index, case.values, "error", message=note) for case in p.cases[done:]])
-        spread = "one thread per case on the GPU" if plan.device == "cuda" else f"{used} thread{'s' if used > 1 else ''} over cases"
+        spread = ("one thread per case on the GPU, 4 cases a call run again on the CPU to check it" if plan.device == "cuda"
+                  else f"{used} thread{'s' if used > 1 else ''} over cases")
         how = (f"ensemble kernels ({plan.method_name}, {spread}, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
                f"{time.perf_counter() - started:.3g} s for all cases; {plan.why})")
         return SweepRun(sorted(collected, key=lambda o: o.index), how, stopped)

@@ -1,0 +1,90 @@
+"""A GPU block's results checked against the CPU's: a few of its cases run again by the CPU's
+ensemble kernels, compared before any of the block's numbers are reported.
+
+The GPU kernels are the CPU's source compiled for the device without fused multiply–adds, so a
+case's numbers are meant to be the CPU's bit for bit; a load that calls a library function
+(``sin``, ``cos``: a harmonic torque, an excitation; ``rkmk4``'s exponential map) may differ in
+its last bit, which a long or chaotic run amplifies.  A device's code can still be wrong where the
+simulator's tests cannot see it (they run the CPU's compiled functions): on an H100 and an H200,
+``dop853`` on general.toml's body over 10 s gave states that were garbage from the first sample
+(docs/benchmarks.md, "The GPU").  So each block's cases ``checked_cases`` are run again on the
+CPU: the status and the samples made must be equal, the last valid state and the observables
+within ``TOLERANCE`` (relative to their scale; the drifts, already relative, absolutely).  A
+disagreement stops the run (``GpuDisagreement``: one line, exit 1) instead of reporting the
+device's numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+import numpy as np
+
+from rotlab.errors import RunFailure
+
+TOLERANCE = 1e-6  # far above a library function's last bit carried through a run, far below a wrong one
+
+
+class Reported(Protocol):  # ``rotlab.ensemble.block.BlockResult``'s fields compared here
+    status: np.ndarray
+    valid: np.ndarray
+    last: np.ndarray
+    flip_period: np.ndarray
+    max_nutation_deg: np.ndarray
+    max_drift: dict[str, np.ndarray]
+
+
+class GpuDisagreement(RunFailure):
+    """The GPU's result for the block's case ``position`` is not the CPU's (``disagreement``)."""
+
+    def __init__(self, position: int, what: str) -> None:
+        super().__init__(message(f"case {position} of the block", what))
+        self.position, self.what = position, what
+
+    def __reduce__(self):  # (picklable across Dask workers)
+        return (type(self), (self.position, self.what))
+
+
+def message(case: str, what: str) -> str:
+    return (f"the GPU's result for {case} differs from the CPU's ({what}): the GPU kernels are wrong for this scene; "
+            f"run this sweep on the CPU (--device cpu)")
+
+
+def checked_cases(b: int) -> list[int]:
+    """The positions, in a block of ``b`` cases, of those run again on the CPU: the first, the
+    last and two between (fixed by b: the same sweep checks the same cases)."""
+    return sorted({0, b // 3, (2 * b) // 3, b - 1})
+
+
+def disagreement(gpu: Reported, cpu: Reported, positions: list[int]) -> tuple[int, str] | None:
+    """(position, what differs) of the first checked case whose GPU result is not its CPU result
+    (``cpu`` holds the cases ``positions`` of ``gpu``, in that order), or None."""
+    for j, k in enumerate(positions):
+        if gpu.status[k] != cpu.status[j] or gpu.valid[k] != cpu.valid[j]:
+            return k, f"status {gpu.status[k]} against {cpu.status[j]}, {gpu.valid[k]} samples against {cpu.valid[j]}"
+        state = _relative(gpu.last[k], cpu.last[j], float(np.max(np.abs(cpu.last[j]))))
+        if not state <= TOLERANCE:
+            return k, f"last state {_vector(gpu.last[k])} against {_vector(cpu.last[j])}, relative difference {state:.1e}"
+        observables = {"flip period": (gpu.flip_period[k], cpu.flip_period[j], abs(cpu.flip_period[j])),
+                       "max nutation": (gpu.max_nutation_deg[k], cpu.max_nutation_deg[j], max(abs(cpu.max_nutation_deg[j]), 1.0)),
+                       **{f"max {name} drift": (gpu.max_drift[name][k], cpu.max_drift[name][j], 1.0) for name in cpu.max_drift}}
+        for name, (a, b, scale) in observables.items():
+            if not _relative(a, b, scale) <= TOLERANCE:
+                return k, f"{name} {a:.9g} against {b:.9g}"
+    return None
+
+
+def _relative(a, b, scale: float) -> float:
+    """max |a − b| / scale over the finite entries (∞ where a and b are not finite in the same
+    places; 0 where they are equal, NaN against NaN included)."""
+    a, b = np.atleast_1d(np.asarray(a, dtype=float)), np.atleast_1d(np.asarray(b, dtype=float))
+    if not np.array_equal(np.isfinite(a), np.isfinite(b)):
+        return math.inf
+    finite = np.isfinite(b)
+    difference = float(np.max(np.abs(a[finite] - b[finite]), initial=0.0))
+    return 0.0 if difference == 0.0 else difference / scale if scale > 0.0 else math.inf
+
+
+def _vector(v: np.ndarray) -> str:
+    return "[" + ", ".join(f"{x:.6g}" for x in v) + "]"

@@ -1,0 +1,64 @@
+"""``rotlab.ensemble.cross_check``: when a GPU block's case is the CPU's, and what is reported when not."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+
+from rotlab.ensemble.cross_check import TOLERANCE, checked_cases, disagreement
+
+
+def _result(b: int, last: np.ndarray | None = None, **changes) -> SimpleNamespace:
+    state = np.tile([0.6, 0.0, 0.8, 0.0, 0.01, 10.0, -0.02, 0.0], (b, 1)) if last is None else last
+    fields = dict(status=np.zeros(b, dtype=np.int64), valid=np.full(b, 401), last=state,
+                  flip_period=np.full(b, 4.5), max_nutation_deg=np.full(b, 179.7),
+                  max_drift={"energy": np.full(b, 5e-12), "quaternion_norm": np.full(b, 2e-12)})
+    fields.update(changes)
+    return SimpleNamespace(**fields)
+
+
+def _cpu_of(gpu: SimpleNamespace, positions: list[int]) -> SimpleNamespace:
+    return SimpleNamespace(status=gpu.status[positions], valid=gpu.valid[positions], last=gpu.last[positions].copy(),
+                           flip_period=gpu.flip_period[positions], max_nutation_deg=gpu.max_nutation_deg[positions],
+                           max_drift={k: v[positions] for k, v in gpu.max_drift.items()})
+
+
+def test_the_checked_cases_are_the_first_the_last_and_two_between():
+    assert checked_cases(1) == [0]
+    assert checked_cases(2) == [0, 1]
+    assert checked_cases(12) == [0, 4, 8, 11]
+    assert checked_cases(4096) == [0, 1365, 2730, 4095]
+
+
+def test_equal_results_and_differences_within_the_tolerance_pass():
+    gpu = _result(12, flip_period=np.full(12, math.nan))  # NaN against NaN: no flip on either device
+    positions = checked_cases(12)
+    cpu = _cpu_of(gpu, positions)
+    assert disagreement(gpu, cpu, positions) is None
+    cpu.last[1, 5] *= 1 + 0.5 * TOLERANCE  # a library function's last bit carried through a run
+    cpu.max_drift["energy"][2] += 0.5 * TOLERANCE
+    assert disagreement(gpu, cpu, positions) is None
+
+
+def test_each_kind_of_difference_names_the_case_and_what_differs():
+    positions = checked_cases(12)
+    gpu = _result(12)
+    cpu = _cpu_of(gpu, positions)
+    gpu.last[4, :4] = 0.0  # the garbage an H100 gave (dop853, general.toml)
+    assert disagreement(gpu, cpu, positions) == (4, "last state [0, 0, 0, 0, 0.01, 10, -0.02, 0] against "
+                                                    "[0.6, 0, 0.8, 0, 0.01, 10, -0.02, 0], relative difference 8.0e-02")
+    gpu = _result(12)
+    gpu.last[8, 5] = math.inf  # not finite where the CPU's is
+    assert disagreement(gpu, cpu, positions)[0] == 8
+    gpu = _result(12, valid=np.array([401] * 11 + [17]), status=np.array([0] * 11 + [1]))
+    assert disagreement(gpu, cpu, positions) == (11, "status 1 against 0, 17 samples against 401")
+    gpu = _result(12, flip_period=np.array([4.5] * 11 + [math.nan]))
+    assert disagreement(gpu, cpu, positions) == (11, "flip period nan against 4.5")
+    gpu = _result(12)
+    gpu.max_drift["quaternion_norm"][0] = 3e-6
+    assert disagreement(gpu, cpu, positions) == (0, "max quaternion_norm drift 3e-06 against 2e-12")
+    gpu = _result(12)
+    gpu.max_nutation_deg[4] = 179.7 * (1 + 10 * TOLERANCE)
+    assert disagreement(gpu, cpu, positions)[0] == 4
