@@ -3,6 +3,7 @@ case's result against the same case run alone on the CPU.
 
     python benchmarks/bench_gpu.py [--cases 1048576] [--check 256] [--threads 32 64 128]
     python benchmarks/bench_gpu.py --fma   # kernels compiled with fused multiply-adds (faster; not the CPU's rounding)
+    python benchmarks/bench_gpu.py --only dop853 --max-registers default 168 128   # register caps (occupancy against spills)
     NUMBA_ENABLE_CUDASIM=1 python benchmarks/bench_gpu.py --cases 8 --check 8   # on a machine without a GPU
 
 Imports numpy, numba (with numba-cuda) and rotlab's kernel modules only — no configuration,
@@ -136,8 +137,12 @@ def difference(last: np.ndarray, acc: np.ndarray, cpu_last: np.ndarray, cpu_acc:
     return max(worst, float(np.max(np.abs(ob.max_drifts(acc, case) - ob.max_drifts(cpu_acc, case)))))
 
 
+def registers_label(cap: int | None) -> str:
+    return "" if cap is None else f" (≤ {cap} registers)"
+
+
 def row(name: str, cases: int, steps: float, kernel_s: float, end_s: float, diff: float, same_steps: bool, identical: bool) -> None:
-    print(f"| {name} | {gpu.THREADS} | {cases:,} | {steps:,.0f} | {kernel_s * 1e3:,.1f} | "
+    print(f"| {name}{registers_label(gpu.MAX_REGISTERS)} | {gpu.THREADS} | {cases:,} | {steps:,.0f} | {kernel_s * 1e3:,.1f} | "
           f"{end_s * 1e3:,.1f} | {cases * steps / kernel_s / 1e9:,.2f} | {cases / kernel_s / 1e6:,.3f} | {diff:.1e} | "
           f"{'yes' if same_steps else 'NO'} | {'yes' if identical else 'no'} |")
 
@@ -201,6 +206,10 @@ def bench_dop853(cases: int, check: int, repeats: int) -> None:
         np.array_equal(last, out.last[:k]))
 
 
+def register_cap(text: str) -> int | None:
+    return None if text == "default" else positive(text)
+
+
 def positive(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -216,6 +225,8 @@ def main() -> None:
     parser.add_argument("--threads", type=positive, nargs="+", default=[gpu.THREADS], help="threads per block to try")
     parser.add_argument("--repeats", type=positive, default=5)
     parser.add_argument("--only", nargs="+", default=["rk4", "dmv", "dop853"])
+    parser.add_argument("--max-registers", type=register_cap, nargs="+", default=[None],
+                        help="registers a thread to try (an integer, or default: ptxas's choice)")
     parser.add_argument("--fma", action="store_true", help="compile with fused multiply-adds (NVVM -fma=1; not the CPU's rounding)")
     args = parser.parse_args()
     gpu.FUSED_MULTIPLY_ADD = args.fma
@@ -228,8 +239,11 @@ def main() -> None:
     print("| method | threads/block | cases | steps/case | kernel ms | end to end ms | G body-steps/s (kernel) | M cases/s (kernel) "
           "| max diff vs CPU | same steps | last states identical |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for threads in args.threads:
+    for cap, threads in ((cap, threads) for cap in args.max_registers for threads in args.threads):
         gpu.THREADS = threads
+        if cap != gpu.MAX_REGISTERS:
+            gpu.MAX_REGISTERS = cap
+            gpu.rebuild_kernels()
         for kind in ("rk4", "dmv"):
             if kind in args.only:
                 for cases in args.cases:

@@ -249,6 +249,8 @@ def test_the_kernels_are_compiled_for_the_cpus_rounding(monkeypatch):
         pass
 
     assert gpu._jit(kernel).targetoptions["lto"] is False
+    monkeypatch.setattr(gpu, "MAX_REGISTERS", 128)  # (bench_gpu.py --max-registers)
+    assert gpu._jit(kernel).targetoptions["max_registers"] == 128
 
 
 def test_a_gpu_result_that_is_not_the_cpus_stops_the_sweep_in_one_line(tmp_path):

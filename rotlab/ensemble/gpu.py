@@ -44,6 +44,7 @@ from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
 MEMORY_FRACTION = 0.5  # of the device's free memory, for dop853's sample grids
 FUSED_MULTIPLY_ADD = False  # NVVM's -fma: True contracts a·b + c (faster, no longer the CPU's rounding)
+MAX_REGISTERS: int | None = None  # per thread, for kernels made by ``_jit`` after it is set (None: ptxas's choice, 254 for dop853)
 SIMULATED_MEMORY = 1 << 26  # bytes, the simulator's device memory (batches of a few cases: tests cover the batches)
 
 
@@ -136,10 +137,19 @@ def _compiling():
 def _jit(kernel):
     """``cuda.jit`` whose None arguments are passed (see ``_NoneArguments``), compiled to PTX by
     NVVM (not link-time optimised: nvJitLink would generate the code itself, fusing
-    multiply–adds whatever NVVM was told); under the simulator, its arrays unwrapped."""
+    multiply–adds whatever NVVM was told), with at most ``MAX_REGISTERS`` registers a thread;
+    under the simulator, its arrays unwrapped."""
     if config.ENABLE_CUDASIM:
         return _simulated_arrays(cuda.jit(kernel))
-    return cuda.jit(kernel, extensions=[_NoneArguments()], lto=False)  # (the decorator form drops lto: numba-cuda 0.30)
+    # (the decorator form drops lto: numba-cuda 0.30)
+    return cuda.jit(kernel, extensions=[_NoneArguments()], lto=False, max_registers=MAX_REGISTERS)
+
+
+def rebuild_kernels() -> None:
+    """The kernels made again by ``_jit`` (after a change of ``MAX_REGISTERS``: a benchmark's)."""
+    global _dop853_kernel
+    _FIXED.clear()
+    _dop853_kernel = _jit(_dop853_kernel.py_func)
 
 
 _FIXED: dict[object, object] = {}  # a fixed-step method's kernel → its CUDA kernel
