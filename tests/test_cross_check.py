@@ -7,7 +7,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from rotlab.ensemble.cross_check import TOLERANCE, checked_cases, disagreement
+from rotlab.core.torques import T_W
+from rotlab.ensemble.cross_check import TOLERANCE, checked_cases, disagreement, library_calls, message
 
 
 def _result(b: int, last: np.ndarray | None = None, **changes) -> SimpleNamespace:
@@ -62,3 +63,24 @@ def test_each_kind_of_difference_names_the_case_and_what_differs():
     gpu = _result(12)
     gpu.max_nutation_deg[4] = 179.7 * (1 + 10 * TOLERANCE)
     assert disagreement(gpu, cpu, positions)[0] == 4
+
+
+def test_what_calls_a_library_function_on_the_gpu_is_named_in_the_message():
+    """A harmonic torque (``sin``) and rkmk4 (``sin``, ``cos``) may part from the CPU in the last
+    bit, which a chaotic motion amplifies: their disagreement says so; any other is the kernels'."""
+    from rotlab.config.loader import load_scenario
+    from rotlab.scene.scene import build_scene
+    from tests.conftest import CONFIGS
+
+    general, lagrange = (build_scene(load_scenario(CONFIGS / name)).model for name in ("general.toml", "lagrange.toml"))
+    assert library_calls(general, "dop853") == "a harmonic torque's sin"
+    assert library_calls(lagrange, "rk4") is None
+    assert library_calls(lagrange, "rkmk4") == "rkmk4's sin and cos"
+    steady = SimpleNamespace(terms=general.terms.copy())
+    steady.terms[:, T_W] = 0.0  # constant torques: no sin is called
+    assert library_calls(steady, "rk4") is None
+    assert message("case 7", "status 1 against 0", None) == (
+        "the GPU's result for case 7 differs from the CPU's (status 1 against 0): the GPU kernels are wrong for this scene; "
+        "run this sweep on the CPU (--device cpu)")
+    assert message("case 7", "x", "a harmonic torque's sin").endswith(
+        "(x): a harmonic torque's sin may differ in its last bit on the GPU, and this motion amplified that; run this sweep on the CPU (--device cpu)")

@@ -22,7 +22,7 @@ from numba import parallel_chunksize
 from rotlab.checks import period_of
 from rotlab.core.kernel_status import NONFINITE, OK, STALLED
 from rotlab.ensemble import observe as ob
-from rotlab.ensemble.cross_check import GpuDisagreement, checked_cases, disagreement
+from rotlab.ensemble.cross_check import GpuDisagreement, checked_cases, disagreement, library_calls
 from rotlab.ensemble.event_scan import BETWEEN_FAULT, FAULT_COLUMNS, FAULT_EVENT, FAULT_FORMULA, FAULT_KIND, FAULT_T0, FAULT_T1, \
     FOUND_COLUMNS, NO_FAULT, EventInputs
 from rotlab.errors import InputError, RunFailure, first_line
@@ -338,7 +338,7 @@ def _check_on_the_cpu(result: BlockResult, scenes: list[Scene], method, settings
         raise cpu
     found = disagreement(result, cpu, positions)
     if found is not None:
-        raise GpuDisagreement(*found)
+        raise GpuDisagreement(*found, library_calls(scenes[0].model, method.name))
 
 
 def _formula_fault(method, scene: Scene, t: np.ndarray, settings: Settings) -> str | None:

@@ -11,7 +11,9 @@ simulator's tests cannot see it (they run the CPU's compiled functions): on an H
 CPU: the status and the samples made must be equal, the last valid state and the observables
 within ``TOLERANCE`` (relative to their scale; the drifts, already relative, absolutely).  A
 disagreement stops the run (``GpuDisagreement``: one line, exit 1) instead of reporting the
-device's numbers.
+device's numbers; the line says whether the call computes a library function
+(``library_calls``), whose last bit a chaotic motion can carry past the tolerance, or the kernels
+are wrong.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from typing import Protocol
 
 import numpy as np
 
+from rotlab.core.torques import T_W
 from rotlab.errors import RunFailure
 
 TOLERANCE = 1e-6  # far above a library function's last bit carried through a run, far below a wrong one
@@ -36,19 +39,35 @@ class Reported(Protocol):  # ``rotlab.ensemble.block.BlockResult``'s fields comp
 
 
 class GpuDisagreement(RunFailure):
-    """The GPU's result for the block's case ``position`` is not the CPU's (``disagreement``)."""
+    """The GPU's result for the block's case ``position`` is not the CPU's (``disagreement``);
+    ``library``: what in the call computes a library function (``library_calls``), or None."""
 
-    def __init__(self, position: int, what: str) -> None:
-        super().__init__(message(f"case {position} of the block", what))
-        self.position, self.what = position, what
+    def __init__(self, position: int, what: str, library: str | None = None) -> None:
+        super().__init__(message(f"case {position} of the block", what, library))
+        self.position, self.what, self.library = position, what, library
 
     def __reduce__(self):  # (picklable across Dask workers)
-        return (type(self), (self.position, self.what))
+        return (type(self), (self.position, self.what, self.library))
 
 
-def message(case: str, what: str) -> str:
-    return (f"the GPU's result for {case} differs from the CPU's ({what}): the GPU kernels are wrong for this scene; "
-            f"run this sweep on the CPU (--device cpu)")
+def message(case: str, what: str, library: str | None) -> str:
+    """One line: which case, what differs, why it may (a library function) or that the device's code is wrong."""
+    cause = ("the GPU kernels are wrong for this scene" if library is None else
+             f"{library} may differ in its last bit on the GPU, and this motion amplified that")
+    return f"the GPU's result for {case} differs from the CPU's ({what}): {cause}; run this sweep on the CPU (--device cpu)"
+
+
+def library_calls(model, method_name: str) -> str | None:
+    """What a GPU call computes with a library function, whose last bit may differ from the C
+    library's (None: only correctly rounded operations, so the CPU's bits are expected): a
+    harmonic torque's ``sin``, ``rkmk4``'s ``sin`` and ``cos`` (formula loads, which call more,
+    do not run on the GPU)."""
+    calls = []
+    if model.terms is not None and np.any(model.terms[:, T_W] != 0.0):
+        calls.append("a harmonic torque's sin")
+    if method_name == "rkmk4":
+        calls.append("rkmk4's sin and cos")
+    return " and ".join(calls) or None
 
 
 def checked_cases(b: int) -> list[int]:

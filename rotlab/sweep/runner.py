@@ -319,7 +319,7 @@ def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cas
         try:
             block = run_block(scenes, plan.method, plan.settings, t, keep, stride, given, device=plan.device)
         except GpuDisagreement as exc:  # (named by the sweep's case number)
-            raise RunFailure(message(f"case {runnable[exc.position][0].index}", exc.what)) from None
+            raise RunFailure(message(f"case {runnable[exc.position][0].index}", exc.what, exc.library)) from None
         if isinstance(block, InputError):
             raise block
         name = plan.method.name
