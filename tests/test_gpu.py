@@ -277,3 +277,34 @@ def test_a_gpu_result_that_is_not_the_cpus_stops_the_sweep_in_one_line(tmp_path)
     assert lines[0].startswith("rotlab: error: the GPU's result for case 4 differs from the CPU's (last state [0, 0, 0, 0, "), lines
     assert lines[0].endswith("run this sweep on the CPU (--device cpu)"), lines
     assert not (tmp_path / "out" / "results.csv").exists()
+
+
+def test_a_gpu_implementation_declared_after_cuda_is_enabled_is_registered(monkeypatch):
+    """A device session's scripts enabled CUDA (``targets.enable_cuda``) before importing
+    ``rotlab.core.dop853``: its GPU-only stages (``gpu_overload``) were never registered for the
+    device, which compiled the CPU's placeholder instead (no stages: PTX with 910 double
+    multiplications instead of 3,068) and ran dop853 from a zero state.  An implementation declared
+    after ``enable_cuda`` is registered at once, as ``overload``'s are; before it, by ``enable_cuda``."""
+    from numba import config
+
+    from rotlab.core import targets
+
+    registered: list[tuple] = []
+    monkeypatch.setattr(targets, "_register_cuda", lambda func, options, impl: registered.append((func, impl)))
+    monkeypatch.setattr(targets, "_GPU_ONLY", [])
+    monkeypatch.setattr(targets, "_FOR_CUDA", [])
+    monkeypatch.setattr(config, "ENABLE_CUDASIM", False)
+
+    def before(): ...
+    def after(): ...
+    def on_the_gpu(): ...
+
+    monkeypatch.setattr(targets, "_cuda_enabled", False)
+    targets.gpu_overload(before)(on_the_gpu)
+    assert registered == []
+    monkeypatch.setattr(targets, "_cuda_enabled", True)  # (what enable_cuda does, without numba-cuda's registry)
+    targets.gpu_overload(after)(on_the_gpu)
+    assert registered == [(after, on_the_gpu)]
+    monkeypatch.setattr(targets, "_cuda_enabled", False)
+    targets.enable_cuda()
+    assert registered[1:] == [(before, on_the_gpu), (after, on_the_gpu)]

@@ -41,9 +41,12 @@ def overload(func: Callable, **options) -> Callable[[Callable], Callable]:
 
 
 def gpu_overload(func: Callable, **options) -> Callable[[Callable], Callable]:
-    """``func``'s implementation on a GPU (registered by ``enable_cuda``)."""
+    """``func``'s implementation on a GPU (registered by ``enable_cuda``, or at once where it has
+    run: a module imported after it must not leave the GPU the CPU's implementation)."""
     def register(impl: Callable) -> Callable:
         _GPU_ONLY.append((func, options, impl))
+        if _cuda_enabled:
+            _register_cuda(func, options, impl)
         return impl
     return register
 
