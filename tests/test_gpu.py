@@ -256,9 +256,9 @@ def test_the_kernels_are_compiled_for_the_cpus_rounding(monkeypatch):
 def test_a_gpu_result_that_is_not_the_cpus_stops_the_sweep_in_one_line(tmp_path):
     """Each GPU call's cases 0, b/3, 2b/3 and b − 1 are run again on the CPU (``cross_check``):
     a device result that is not the CPU's (here one case's last state corrupted by hand after the
-    kernel, as a wrong device compilation would leave it: an H100 and an H200 gave such garbage
-    for dop853 on general.toml) ends ``rotlab sweep`` with one line naming the sweep's case, exit 1;
-    the same sweep uncorrupted passes (the simulator's GPU is the CPU bit for bit)."""
+    kernel, Λ = 0, as dop853 without its stages left it on an H100 and an H200) ends ``rotlab
+    sweep`` with one line naming the sweep's case, exit 1; the same sweep uncorrupted passes (the
+    simulator's GPU is the CPU bit for bit)."""
     config = _small_sweep(tmp_path)
     failing = _python(f"""
         import sys

@@ -3,17 +3,17 @@ ensemble kernels, compared before any of the block's numbers are reported.
 
 The GPU kernels are the CPU's source compiled for the device without fused multiply–adds, so a
 case's numbers are meant to be the CPU's bit for bit; a load that calls a library function
-(``sin``, ``cos``: a harmonic torque, an excitation; ``rkmk4``'s exponential map) may differ in
-its last bit, which a long or chaotic run amplifies.  A device's code can still be wrong where the
-simulator's tests cannot see it (they run the CPU's compiled functions): on an H100 and an H200,
-``dop853`` on general.toml's body over 10 s gave states that were garbage from the first sample
-(docs/benchmarks.md, "The GPU").  So each block's cases ``checked_cases`` are run again on the
-CPU: the status and the samples made must be equal, the last valid state and the observables
-within ``TOLERANCE`` (relative to their scale; the drifts, already relative, absolutely).  A
+(``sin``, ``cos``: a harmonic torque, ``rkmk4``'s exponential map) may differ in
+its last bit, which a long or chaotic run amplifies. Device code can be wrong where numba's CUDA
+simulator, and so the tests, cannot see it (the simulator runs the CPU's compiled functions): a
+device session once ran ``dop853`` with its stages missing, a GPU-only implementation left
+unregistered (``targets.gpu_overload``, fixed), and got states that were garbage from the first
+sample (docs/benchmarks.md, "The GPU"). So each block's cases ``checked_cases`` are run again on
+the CPU: the status and the samples made must be equal, the last valid state and the observables
+within ``TOLERANCE`` (relative to their scale; the drifts, already relative, absolutely). A
 disagreement stops the run (``GpuDisagreement``: one line, exit 1) instead of reporting the
-device's numbers; the line says whether the call computes a library function
-(``library_calls``), whose last bit a chaotic motion can carry past the tolerance, or the kernels
-are wrong.
+device's numbers; the line says whether the call computes a library function (``library_calls``),
+whose last bit a chaotic motion can carry past the tolerance, or the kernels are wrong.
 """
 
 from __future__ import annotations
