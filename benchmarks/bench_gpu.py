@@ -4,7 +4,7 @@ case's result against the same case run alone on the CPU.
     python benchmarks/bench_gpu.py [--cases 1048576] [--check 256] [--threads 32 64 128]
     python benchmarks/bench_gpu.py --fma   # kernels compiled with fused multiply-adds (faster; not the CPU's rounding)
     python benchmarks/bench_gpu.py --only dop853 --max-registers default 168 128   # register caps (occupancy against spills)
-    NUMBA_ENABLE_CUDASIM=1 python benchmarks/bench_gpu.py --cases 8 --check 8   # on a machine without a GPU
+    NUMBA_ENABLE_CUDASIM=1 python benchmarks/bench_gpu.py --cases 8 --dop853-cases 8 --check 8   # on a machine without a GPU
 
 Imports numpy, numba (with numba-cuda) and rotlab's kernel modules only — no configuration,
 recording or CLI (no pydantic, rerun or typer) — so it runs as it is on a bare GPU machine.  The

@@ -63,6 +63,21 @@ def test_each_kind_of_difference_names_the_case_and_what_differs():
     gpu = _result(12)
     gpu.max_nutation_deg[4] = 179.7 * (1 + 10 * TOLERANCE)
     assert disagreement(gpu, cpu, positions)[0] == 4
+    gpu, cpu.last[2, 5] = _result(12), -math.inf  # (case 8) not finite on both, but not the same
+    gpu.last[8, 5] = math.inf
+    assert disagreement(gpu, cpu, positions)[0] == 8
+
+
+def test_a_drift_is_compared_relative_to_itself_above_one():
+    """A diverging case's drift (1e12) a last bit apart is the same drift; 1e-12 against 2e-6 is not."""
+    positions = checked_cases(12)
+    gpu = _result(12)
+    gpu.max_drift["energy"][:] = 1e12
+    cpu = _cpu_of(gpu, positions)
+    cpu.max_drift["energy"][1] = 1e12 * (1 + 2.0 ** -52)
+    assert disagreement(gpu, cpu, positions) is None
+    gpu.max_drift["energy"][0], cpu.max_drift["energy"][0] = 2e-6, 1e-12
+    assert disagreement(gpu, cpu, positions) == (0, "max energy drift 2e-06 against 1e-12")
 
 
 def test_what_calls_a_library_function_on_the_gpu_is_named_in_the_message():
@@ -82,5 +97,6 @@ def test_what_calls_a_library_function_on_the_gpu_is_named_in_the_message():
     assert message("case 7", "status 1 against 0", None) == (
         "the GPU's result for case 7 differs from the CPU's (status 1 against 0): the GPU kernels are wrong for this scene; "
         "run this sweep on the CPU (--device cpu)")
-    assert message("case 7", "x", "a harmonic torque's sin").endswith(
-        "(x): a harmonic torque's sin may differ in its last bit on the GPU, and this motion amplified that; run this sweep on the CPU (--device cpu)")
+    assert message("case 7", "x", "a harmonic torque's sin").endswith(  # (both causes: a difference cannot say which it has)
+        "(x): the GPU kernels are wrong for this scene, or a harmonic torque's sin, which may differ in its last bit on the GPU, "
+        "was amplified by this motion; run this sweep on the CPU (--device cpu)")

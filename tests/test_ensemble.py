@@ -350,3 +350,32 @@ def test_an_adaptive_case_that_cannot_finish_stops_as_its_single_run_stops(metho
         traj = api.run_scene(scene, plan=(m, "alone", settings, t))
         assert traj.stats.failure is not None and block.failure[k] == traj.stats.failure
         assert block.steps[k] == traj.stats.steps and block.valid[k] == traj.t.shape[0] < t.shape[0]
+
+
+def test_a_case_whose_quaternion_collapses_to_zero_reports_as_its_run_alone(write):
+    """rk4 (no renormalisation) far past its stable step drives |Λ| to 0 exactly: the ensemble's
+    observables divided by |Λ| (a ZeroDivisionError inside the parallel kernel: a traceback,
+    before) and dropped the NaNs the stored-trajectory report keeps. Now every sample is the run
+    alone's, the nutation is NaN in both (no attitude), and the drifts are equal."""
+    from rotlab import api
+
+    text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 0.01, 0.0]\n'
+            '[[loads]]\ntype = "torque"\nframe = "body"\nvalue = [0.0, 0.0, 1.0]\n[time]\nend = 3.0\nsample_rate = 100\n'
+            '[solver]\nmethod = "rk4"\nstep = 4e-4\n')
+    base = read_toml(write("collapse.toml", text))
+    scenes = []
+    for wz in (0.0, 2000.0, -6000.0):
+        case = copy.deepcopy(base)
+        case["initial"]["omega"][2] = wz
+        scenes.append(build_scene(parse_scenario(case, source="collapse.toml")))
+    m, t = get_method("rk4"), scenes[0].scenario.time.sample_times()
+    settings = Settings.of(scenes[0].scenario.solver)
+    block = run_block(scenes, m, settings, t, [0, 1, 2], 1, [None] * 3)
+    alone = [api.run_scene(scene, plan=(m, "alone", settings, t)) for scene in scenes]
+    report = outcomes_of([(Case(k, {}), traj, 0.0) for k, traj in enumerate(alone)])
+    assert min(np.min(np.linalg.norm(traj._state[:, :4], axis=1)) for traj in alone[:2]) == 0.0  # the collapse happens
+    for k, (traj, outcome) in enumerate(zip(alone, report)):
+        assert np.array_equal(block.kept[k][1], traj._state)
+        assert np.array_equal(block.max_nutation_deg[k], outcome.observables["max_nutation_deg"], equal_nan=True)
+        assert all(block.max_drift[name][k] == value for name, value in outcome.drift.items())
+    assert np.isnan(block.max_nutation_deg[:2]).all() and np.isfinite(block.max_nutation_deg[2])

@@ -11,6 +11,7 @@ so each case's states are those of the case run alone (tests/test_ensemble.py: b
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -104,6 +105,7 @@ class BlockResult:
     max_drift: dict[str, np.ndarray]  # invariant → max |relative drift| (the scene's invariants)
     events: dict[str, np.ndarray]  # sweep column (``rotlab.events.observable_names``) → its value in each case
     kept: dict[int, tuple[np.ndarray, np.ndarray]]  # case → (times, states (n, 8)) of the kept samples
+    checked_seconds: float = 0.0  # of a GPU call: the CPU's re-run of some of its cases (``_check_on_the_cpu``)
 
 
 def case_inputs(scenes: list[Scene], given_axes: list[str | None]) -> np.ndarray:
@@ -324,7 +326,9 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     result = BlockResult(status, valid, steps, rejected, evaluations, failure, details, last, period, reversals, nutation, drift,
                          event_observables(compiled, found, ran), kept_rows)
     if device == "cuda" and cross_check:
+        started = time.perf_counter()
         _check_on_the_cpu(result, scenes, method, settings, t, given_axes)
+        result.checked_seconds = time.perf_counter() - started
     return result
 
 

@@ -44,7 +44,7 @@ from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
 MEMORY_FRACTION = 0.5  # of the device's free memory, for dop853's sample grids
 FUSED_MULTIPLY_ADD = False  # NVVM's -fma: True contracts a·b + c (faster, no longer the CPU's rounding)
-MAX_REGISTERS: int | None = None  # per thread, for kernels made by ``_jit`` after it is set (None: ptxas's choice, 254 for dop853)
+MAX_REGISTERS: int | None = None  # per thread, for kernels made by ``_jit`` after it is set (None: ptxas's choice, 255 for dop853)
 SIMULATED_MEMORY = 1 << 26  # bytes, the simulator's device memory (batches of a few cases: tests cover the batches)
 
 

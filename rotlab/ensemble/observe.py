@@ -107,8 +107,20 @@ def drifts_at(w1, w2, w3, work, potential, has_forces, norm, u0, u1, u2, u3, k):
 
 
 @njit(cache=True, inline="always")
+def _lower(m, x):
+    """min(m, x) as ``np.min`` folds it: a NaN, once seen, stays (numba's ``min`` drops one)."""
+    return x if x != x else min(m, x)  # (numba's min(NaN, x) is NaN: only a NaN x needs the test)
+
+
+@njit(cache=True, inline="always")
+def _higher(m, x):
+    """max(m, x) as ``np.max`` folds it: a NaN, once seen, stays."""
+    return x if x != x else max(m, x)
+
+
+@njit(cache=True, inline="always")
 def _nutation_cosine(u0, u1, u2, u3, e, d):
-    """cos ϑ = (R(Λ) e)·d (``rotlab.core.quaternion.projection_array``) for the unit Λ, clipped to [−1, 1]."""
+    """cos ϑ = (R(Λ) e)·d (``rotlab.core.quaternion.projection_array``) for the unit Λ, clipped to [−1, 1] as ``np.clip`` clips."""
     e0, e1, e2 = e
     d0, d1, d2 = d
     ed = e0 * d0 + e1 * d1 + e2 * d2
@@ -116,10 +128,10 @@ def _nutation_cosine(u0, u1, u2, u3, e, d):
     qd = u1 * d0 + u2 * d1 + u3 * d2
     c1, c2, c3 = e1 * d2 - e2 * d1, e2 * d0 - e0 * d2, e0 * d1 - e1 * d0
     qc = u1 * c1 + u2 * c2 + u3 * c3
-    return min(1.0, max(-1.0, (2.0 * u0 * u0 - 1.0) * ed + 2.0 * (qe * qd + u0 * qc)))
+    return _lower(1.0, _higher(-1.0, (2.0 * u0 * u0 - 1.0) * ed + 2.0 * (qe * qd + u0 * qc)))  # (NaN kept, as np.clip keeps it)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")  # (a division by 0 is NumPy's, not a ZeroDivisionError: rk4 can drive Λ to 0)
 def observe_rows(times, rows, start, stop, first, k, forces, acc):
     """Fold samples ``start … stop − 1`` of ``rows`` (at ``times``) into ``acc``; ``first``: row
     ``start`` is the case's first sample (it opens ``acc``); ``k``: the case's ``Constants``.  The
@@ -147,14 +159,14 @@ def observe_rows(times, rows, start, stop, first, k, forces, acc):
         c_prev, t_prev = c, t
         q0, q1, q2, q3 = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3]
         norm = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)  # (``rotlab.rows.unit_rows``' order)
-        u0, u1, u2, u3 = q0 / norm, q1 / norm, q2 / norm, q3 / norm
-        min_cos = min(min_cos, _nutation_cosine(u0, u1, u2, u3, k.e, k.d))
+        u0, u1, u2, u3 = q0 / norm, q1 / norm, q2 / norm, q3 / norm  # (Λ collapsed to 0: NaN, NumPy's 0/0)
+        min_cos = _lower(min_cos, _nutation_cosine(u0, u1, u2, u3, k.e, k.d))
         potential = 0.0
         for f in range(forces.shape[0]):  # V = −Σ F·(R(Λ) p), here and not in a function: see ``Constants``
             ax, ay, az = rotate_to_space(u0, u1, u2, u3, forces[f, F_POINT], forces[f, F_POINT + 1], forces[f, F_POINT + 2])
             potential -= ax * forces[f, F_FORCE] + ay * forces[f, F_FORCE + 1] + az * forces[f, F_FORCE + 2]
         d0, d1, d2, d3, d4, d5 = drifts_at(rows[i, 4], rows[i, 5], rows[i, 6], rows[i, 7], potential, has_forces, norm, u0, u1, u2, u3, k)
-        m0, m1, m2, m3, m4, m5 = max(m0, d0), max(m1, d1), max(m2, d2), max(m3, d3), max(m4, d4), max(m5, d5)
+        m0, m1, m2, m3, m4, m5 = _higher(m0, d0), _higher(m1, d1), _higher(m2, d2), _higher(m3, d3), _higher(m4, d4), _higher(m5, d5)
     acc[ACC_REVERSALS], acc[ACC_FIRST], acc[ACC_LAST], acc[ACC_MIN_COS] = reversals, first_t, last_t, min_cos
     acc[ACC_PREV_C], acc[ACC_PREV_T] = c_prev, t_prev
     acc[ACC_DRIFT], acc[ACC_DRIFT + 1], acc[ACC_DRIFT + 2], acc[ACC_DRIFT + 3], acc[ACC_DRIFT + 4], acc[ACC_DRIFT + 5] = m0, m1, m2, m3, m4, m5

@@ -290,9 +290,10 @@ def block_size(size: int, seconds: float) -> int:
 
 
 def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cases: list[Case], plan: EnsemblePlan,
-                       compared: frozenset[int] | None) -> list[CaseOutcome]:
+                       compared: frozenset[int] | None, timing: dict[str, float] | None = None) -> list[CaseOutcome]:
     """One ensemble kernel call for ``cases`` (validated here: an invalid case is an "error"
-    outcome); importable by Dask workers, each task a block of cases."""
+    outcome); importable by Dask workers, each task a block of cases.  ``timing["checked"]``
+    receives the seconds a GPU call spent checking cases on the CPU (not the device's pace)."""
     from rotlab.ensemble.block import run_block
     from rotlab.ensemble.cross_check import GpuDisagreement, message
     from rotlab.methods.base import Solution
@@ -322,6 +323,8 @@ def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cas
             raise RunFailure(message(f"case {runnable[exc.position][0].index}", exc.what, exc.library)) from None
         if isinstance(block, InputError):
             raise block
+        if timing is not None:
+            timing["checked"] = block.checked_seconds
         name = plan.method.name
         for k, (case, scene) in enumerate(runnable):
             failure = block.failure[k]
@@ -417,11 +420,11 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         with signals_raise_stopped():
             try:
                 while done < len(p.cases):
-                    block_started = time.perf_counter()
+                    block_started, timing = time.perf_counter(), {}
                     block = p.cases[done:done + size]
-                    deliver(run_ensemble_chunk(p.raw, p.base, p.source, block, plan, compared))
+                    deliver(run_ensemble_chunk(p.raw, p.base, p.source, block, plan, compared, timing))
                     done += len(block)
-                    size = block_size(size, time.perf_counter() - block_started)
+                    size = block_size(size, time.perf_counter() - block_started - timing.get("checked", 0.0))  # (the pace of the kernels)
             except Stopped as stop:  # (between kernel calls: a block is not cut short)
                 stopped = stop.signum
             finally:
@@ -430,7 +433,7 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
         if stopped is not None:
             note = f"not finished (the sweep received {signal.Signals(stopped).name})"
             deliver([CaseOutcome(case.index, case.values, "error", message=note) for case in p.cases[done:]])
-        spread = ("one thread per case on the GPU, 4 cases a call run again on the CPU to check it" if plan.device == "cuda"
+        spread = ("one thread per case on the GPU, up to 4 cases a call run again on the CPU to check it" if plan.device == "cuda"
                   else f"{used} thread{'s' if used > 1 else ''} over cases")
         how = (f"ensemble kernels ({plan.method_name}, {spread}, {FIRST_BLOCK}–{BLOCK_CASES} cases a call, "
                f"{time.perf_counter() - started:.3g} s for all cases; {plan.why})")
