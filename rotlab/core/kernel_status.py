@@ -32,6 +32,13 @@ def end_sample(y, out, i):
 
 
 @njit(cache=True)
+def pace_judged(taken, budget, chunk, steps, max_steps):
+    """Whether a call's pace may be judged (``stall_needs``): it took a whole chunk of steps and
+    the run has steps left (a shorter call ended at its window or its budget)."""
+    return taken >= budget == chunk and steps < max_steps
+
+
+@njit(cache=True)
 def stall_needs(t_from, t_to, taken, t_end, steps_left):
     """After a whole chunk of ``taken`` steps that advanced t from ``t_from`` to ``t_to``: the
     steps the rest of the span to ``t_end`` needs at that pace, when it is more than

@@ -218,8 +218,8 @@ def _dop853_kernel(first, y0, times, grid, rtol, atol, max_steps, chunk, model, 
         counted[m], clock[m] = 0, 0.0
     store_row(rows, 0, y)
     code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock)
-    for m in range(3):
-        counters[b, m], clocks[b, m] = counted[m], clock[m]
+    store_row(counters, b, counted)
+    store_row(clocks, b, clock)
     report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                  kept_count, folded, count)
 

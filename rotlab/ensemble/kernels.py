@@ -26,7 +26,7 @@ from numba.extending import overload
 from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
-from rotlab.core.kernel_status import OK, STALLED, stall_needs, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
+from rotlab.core.kernel_status import OK, STALLED, pace_judged, stall_needs, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
 from rotlab.ensemble.event_scan import event_scratch, open_events, scan_events
 from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
@@ -231,7 +231,7 @@ def _after_call(code, start, t, taken, budget, chunk, steps, max_steps, times, i
     n = times.shape[0]
     if code != OK:
         return code, True, lo, hi
-    if taken >= budget == chunk and steps < max_steps and stall_needs(start, t, taken, times[n - 1], max_steps - steps) != 0.0:
+    if pace_judged(taken, budget, chunk, steps, max_steps) and stall_needs(start, t, taken, times[n - 1], max_steps - steps) != 0.0:
         clock[1], clock[2] = start, taken
         return STALLED, True, lo, hi
     if i == hi < n:
@@ -280,8 +280,8 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions,
         if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
             code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted, clock)
             i = scan_whole("dop853", solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
-        for m in range(3):
-            counters[b, m], clocks[b, m] = counted[m], clock[m]
+        store_row(counters, b, counted)
+        store_row(clocks, b, clock)
         report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count)
 
@@ -317,7 +317,6 @@ def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expre
             code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted, clock)
             i = scan_whole("taylor", solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
         counters[b, 0] = counted[0]
-        for m in range(3):
-            clocks[b, m] = clock[m]
+        store_row(clocks, b, clock)
         report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count)

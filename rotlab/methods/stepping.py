@@ -31,7 +31,7 @@ import numpy as np
 from rotlab import interrupts
 from rotlab.core import faults
 from rotlab.core.dynamics import STATE_SIZE
-from rotlab.core.kernel_status import WINDOW, stall_needs
+from rotlab.core.kernel_status import WINDOW, pace_judged, stall_needs
 from rotlab.methods.base import ProgressCallback, Solution
 
 if TYPE_CHECKING:
@@ -191,7 +191,8 @@ def run_chunks(
             if status == 0 and taken == 0 and done == i and budget == chunk < CHUNK_STEPS:  # a sample needs more: whole chunks
                 chunk = CHUNK_STEPS
                 continue
-            if status == 0 and integrator_time is not None and taken >= budget == chunk and steps < max_steps:
+            # (the predicate's Python function: a compiled call here would add a compile to a run's start)
+            if status == 0 and integrator_time is not None and pace_judged.py_func(taken, budget, chunk, steps, max_steps):
                 failure = stall_message(start, now(), taken, float(t[n - 1]), max_steps - steps, max_steps)
             if status != 0:
                 valid = _valid_rows(window, local)  # a kernel may have written non-finite rows before it stopped
