@@ -106,3 +106,20 @@ def test_every_load_kind_is_drawn_with_the_kernels_torque(kind):
     torque_samples(t, q, w, scene.model, whole)
     np.testing.assert_array_equal(drawn, whole)
     assert np.count_nonzero(np.any(drawn != 0.0, axis=1)) > 5
+
+
+@pytest.mark.parametrize("kind", sorted(EXAMPLES))
+def test_every_load_kinds_work_is_counted(kind):
+    """H = T + V − W stays at H₀ (dop853 at rtol 1e-12: bound 1e-8 of the energy scale) with each
+    kind alone; where the kind does work, T + V moves by more than 1e-3 of that scale, so a work
+    rate the kernels dropped (W ≡ 0: the compiled right-hand side skips it for scenes without a
+    load that does work, ``torques.WORKLESS_FIELDS``) breaks the bound by far."""
+    traj = rotlab.simulate(_scenario(_example(kind), "dop853", 1e-12))
+    potential0 = traj.potential[0] if traj.potential is not None else 0.0
+    scale = max(abs(traj.total[0]), traj.kinetic[0] + abs(potential0))  # (invariants' energy scale; W₀ = 0)
+    assert np.max(np.abs(traj.invariants["energy"])) <= 1e-8
+    moved = np.max(np.abs(traj.total - traj.total[0])) / scale
+    if traj.work is None:  # conservative: a potential, or no torque's work at all
+        assert kind in ("gravity", "gravity_gradient") or moved <= 1e-8, kind
+    else:
+        assert moved > 1e-3 and np.max(np.abs(traj.work)) > 1e-3 * scale, kind

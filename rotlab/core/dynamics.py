@@ -33,7 +33,7 @@ from numba import njit, types
 
 from rotlab.core.targets import next_toward, overload
 from rotlab.core.state import P0, Q0, STATE_SIZE, WORK
-from rotlab.core.torques import conservative_torque, drive_rotors, nonconservative_torque, with_gyrostatic
+from rotlab.core.torques import conservative_torque, drive_rotors, nonconservative_torque, plus_torque, power, with_gyrostatic
 
 __all__ = ["STATE_SIZE", "all_finite", "euler_coefficients", "next_piece", "rhs", "rhs_called", "rhs_llvm_inlined", "state_size"]
 
@@ -52,17 +52,18 @@ def rhs(t, y, dy, model):
     q0, q1, q2, q3 = y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3]
     p, q, r = y[P0], y[P0 + 1], y[P0 + 2]
     euler = model.euler
-    cx, cy, cz = with_gyrostatic(conservative_torque(y, model), p, q, r, model.rotors)
-    nx, ny, nz = nonconservative_torque(t, y, model)
-    cx, cy, cz, nx, ny, nz = drive_rotors(t, y, dy, (cx, cy, cz, nx, ny, nz), model.drives)
+    c = with_gyrostatic(conservative_torque(y, model), p, q, r, model.rotors)
+    n = nonconservative_torque(t, y, model)  # None: the scene has no load that does work
+    c, n = drive_rotors(t, y, dy, c, n, model.drives)
+    mx, my, mz = plus_torque(c, n)
     dy[Q0] = -0.5 * (q1 * p + q2 * q + q3 * r)
     dy[Q0 + 1] = 0.5 * (q0 * p + q2 * r - q3 * q)
     dy[Q0 + 2] = 0.5 * (q0 * q + q3 * p - q1 * r)
     dy[Q0 + 3] = 0.5 * (q0 * r + q1 * q - q2 * p)
-    dy[P0] = euler[0] * q * r + (cx + nx) * euler[3]
-    dy[P0 + 1] = euler[1] * r * p + (cy + ny) * euler[4]
-    dy[P0 + 2] = euler[2] * p * q + (cz + nz) * euler[5]
-    dy[WORK] = nx * p + ny * q + nz * r
+    dy[P0] = euler[0] * q * r + mx * euler[3]
+    dy[P0 + 1] = euler[1] * r * p + my * euler[4]
+    dy[P0 + 2] = euler[2] * p * q + mz * euler[5]
+    dy[WORK] = power(n, p, q, r)
 
 
 def state_size(model):

@@ -29,12 +29,16 @@ def qmul(a0, a1, a2, a3, b0, b1, b2, b3):
 
 
 @njit(cache=True, inline="always")
+def _twice_cross(q1, q2, q3, x, y, z):
+    """t = 2 q × v, the rotations' first product."""
+    return 2.0 * (q2 * z - q3 * y), 2.0 * (q3 * x - q1 * z), 2.0 * (q1 * y - q2 * x)
+
+
+@njit(cache=True, inline="always")
 def rotate_to_space(q0, q1, q2, q3, x, y, z):
     """R(Λ) v = Λ ∘ v ∘ Λ̃ for a unit Λ (v in body components → space components)."""
     # v' = v + 2 q0 (q × v) + 2 q × (q × v)
-    tx = 2.0 * (q2 * z - q3 * y)
-    ty = 2.0 * (q3 * x - q1 * z)
-    tz = 2.0 * (q1 * y - q2 * x)
+    tx, ty, tz = _twice_cross(q1, q2, q3, x, y, z)
     return (
         x + q0 * tx + (q2 * tz - q3 * ty),
         y + q0 * ty + (q3 * tx - q1 * tz),
@@ -44,8 +48,15 @@ def rotate_to_space(q0, q1, q2, q3, x, y, z):
 
 @njit(cache=True, inline="always")
 def rotate_to_body(q0, q1, q2, q3, x, y, z):
-    """R(Λ)ᵀ v = Λ̃ ∘ v ∘ Λ for a unit Λ (v in space components → body components)."""
-    return rotate_to_space(q0, -q1, -q2, -q3, x, y, z)
+    """R(Λ)ᵀ v = Λ̃ ∘ v ∘ Λ for a unit Λ (v in space components → body components):
+    ``rotate_to_space`` of the conjugate, v − q0 t + q × t with t = 2 q × v, its products and sums
+    rounded alike (negating q negates t exactly) without the three negations."""
+    tx, ty, tz = _twice_cross(q1, q2, q3, x, y, z)
+    return (
+        x - q0 * tx + (q2 * tz - q3 * ty),
+        y - q0 * ty + (q3 * tx - q1 * tz),
+        z - q0 * tz + (q1 * ty - q2 * tx),
+    )
 
 
 def cross_array(a: np.ndarray, b: np.ndarray) -> np.ndarray:

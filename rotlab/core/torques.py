@@ -36,6 +36,10 @@ TB_COLUMNS = 5
 EX_FRAME, EX_ON, EX_OFF, EX_FORCE, EX_POINT, EX_UP, EX_UP2, EX_RATE, EX_PROGRAMS = 0, 1, 2, 3, 4, 7, 10, 13, 14
 EX_COLUMNS = 20
 N_INPUTS = 14
+# The model's fields that hold no load doing work (the driven rotors' reaction is ``drive_rotors``'s):
+# a scene whose other fields are all None has no non-conservative torque.  Listed this way round, a
+# field added to the model counts as a load that may do work until it is listed here.
+WORKLESS_FIELDS = ("euler", "breaks", "forces", "rotors", "drives")
 
 
 def conservative_torque(y, model):
@@ -44,7 +48,19 @@ def conservative_torque(y, model):
 
 
 def nonconservative_torque(t, y, model):
-    """Terms + tables + damping + expressions at time t; body components."""
+    """Terms + tables + damping + expressions + a Python torque at time t, body components; None
+    when the scene has none of them (a compile-time None: ``plus_torque`` and ``power`` then cost
+    nothing, where adding a torque of 0 or its work 0 · ω are operations the compiler must keep)."""
+    raise NotImplementedError("compiled only")
+
+
+def plus_torque(c, n):
+    """c + n, body components; c itself when n is None (``nonconservative_torque``)."""
+    raise NotImplementedError("compiled only")
+
+
+def power(n, p, q, r):
+    """Ẇ = n · ω, the rate of work of the non-conservative torque n; 0 when n is None."""
     raise NotImplementedError("compiled only")
 
 
@@ -86,6 +102,9 @@ def _conservative_torque(y, model):
 
 @overload(nonconservative_torque, inline="always")
 def _nonconservative_torque(t, y, model):
+    if all(isinstance(kind, types.NoneType) for field, kind in zip(model.fields, model.types) if field not in WORKLESS_FIELDS):
+        return lambda t, y, model: None
+
     def impl(t, y, model):
         ax, ay, az = _terms(t, y, model.terms)
         bx, by, bz = _tables(t, y, model.tables, model.table_t, model.table_v)
@@ -95,6 +114,20 @@ def _nonconservative_torque(t, y, model):
         return ax + bx + cx + dx + ex, ay + by + cy + dy + ey, az + bz + cz + dz + ez
 
     return impl
+
+
+@overload(plus_torque, inline="always")
+def _plus_torque(c, n):
+    if isinstance(n, types.NoneType):
+        return lambda c, n: c
+    return lambda c, n: (c[0] + n[0], c[1] + n[1], c[2] + n[2])
+
+
+@overload(power, inline="always")
+def _power(n, p, q, r):
+    if isinstance(n, types.NoneType):
+        return lambda n, p, q, r: 0.0
+    return lambda n, p, q, r: n[0] * p + n[1] * q + n[2] * r
 
 
 def _user(t, y, user):
@@ -153,16 +186,26 @@ def _damping_impl(y, damping):
 # argument types that do not depend on the scene, so each is compiled once and cached on disk).
 
 
+@njit(cache=True, inline="always")
+def force_torque(y, forces, k):
+    """p × (Rᵀ F) of force row k of ``forces_torque``."""
+    fx, fy, fz = rotate_to_body(y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3], forces[k, F_FORCE], forces[k, F_FORCE + 1], forces[k, F_FORCE + 2])
+    px, py, pz = forces[k, F_POINT], forces[k, F_POINT + 1], forces[k, F_POINT + 2]
+    return py * fz - pz * fy, pz * fx - px * fz, px * fy - py * fx
+
+
 def forces_torque(y, forces):
     """Σ_k p_k × (Rᵀ F_k): constant space-frame forces F (columns F_FORCE) at body points p
-    (columns F_POINT)."""
-    cx = cy = cz = 0.0
-    for k in range(forces.shape[0]):
-        fx, fy, fz = rotate_to_body(y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3], forces[k, F_FORCE], forces[k, F_FORCE + 1], forces[k, F_FORCE + 2])
-        px, py, pz = forces[k, F_POINT], forces[k, F_POINT + 1], forces[k, F_POINT + 2]
-        cx += py * fz - pz * fy
-        cy += pz * fx - px * fz
-        cz += px * fy - py * fx
+    (columns F_POINT).  The sum starts at the first force's torque, not at 0 + it (a scene's one
+    force, gravity, costs no additions)."""
+    if forces.shape[0] == 0:
+        return 0.0, 0.0, 0.0
+    cx, cy, cz = force_torque(y, forces, 0)
+    for k in range(1, forces.shape[0]):
+        mx, my, mz = force_torque(y, forces, k)
+        cx += mx
+        cy += my
+        cz += mz
     return cx, cy, cz
 
 
@@ -353,22 +396,26 @@ def _with_gyrostatic(torque, p, q, r, rotors):
     return impl
 
 
-def drive_rotors(t, y, dy, torques, drives):
+def drive_rotors(t, y, dy, c, n, drives):
     """A gyrostat's driven rotors (``rotlab.scene.loads.Drives``): dy[STATE_SIZE + j] = u_j, their
-    drives' torques, and ``torques`` = (conservative, non-conservative) body torques with the
-    rotors' share added: h(t) × ω (workless; h = Σ J Ω_j â_j from the state) and −Σ u_j â_j (the
-    drives' reaction, which does work).  ``torques`` itself without driven rotors (None)."""
+    drives' torques, and (c, n), the conservative and non-conservative body torques (n None: no
+    non-conservative load), with the rotors' share added: h(t) × ω to c (workless; h = Σ J Ω_j â_j
+    from the state) and −Σ u_j â_j to n (the drives' reaction, which does work).  (c, n) itself
+    without driven rotors (None)."""
     raise NotImplementedError("compiled only")
 
 
 @overload(drive_rotors, inline="always")
-def _drive_rotors(t, y, dy, torques, drives):
+def _drive_rotors(t, y, dy, c, n, drives):
     if isinstance(drives, types.NoneType):
-        return lambda t, y, dy, torques, drives: torques
+        return lambda t, y, dy, c, n, drives: (c, n)
 
-    def impl(t, y, dy, torques, drives):
+    def impl(t, y, dy, c, n, drives):
         ex = drives.ex
-        return rotor_drives(t, y, dy, torques, ex.rows, ex.fn, ex.axes, ex.axes_q, ex.moments, drives.offset, drives.axes)
+        nx, ny, nz = plus_torque((0.0, 0.0, 0.0), n)
+        cx, cy, cz, nx, ny, nz = rotor_drives(t, y, dy, (c[0], c[1], c[2], nx, ny, nz), ex.rows, ex.fn, ex.axes, ex.axes_q,
+                                              ex.moments, drives.offset, drives.axes)
+        return (cx, cy, cz), (nx, ny, nz)
 
     return impl
 
@@ -451,7 +498,7 @@ def drive_torques(t, states, model, out):
     state ``states[k]``, the rotors' momenta included)."""
     dy = np.zeros(states.shape[1])
     for k in range(t.shape[0]):
-        drive_rotors(t[k], states[k], dy, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0), model.drives)
+        drive_rotors(t[k], states[k], dy, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), model.drives)
         for j in range(out.shape[1]):
             out[k, j] = dy[STATE_SIZE + j]
 
