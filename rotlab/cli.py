@@ -207,6 +207,10 @@ def validate(
     for path in configs:
         try:
             scenario = load_scenario(path, overrides)
+            if scenario.sweep is not None:
+                from rotlab.sweep.cases import check_parameters
+
+                check_parameters(scenario, str(path))
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
             for line in (*describe(scenario.body), *scenario.rotor_lines()):
                 typer.echo(f"  {line[2:]}")

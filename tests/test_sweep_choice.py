@@ -130,7 +130,7 @@ def test_a_value_swept_whole_and_in_parts_is_an_input_error(write, parameters, k
     text = SWEEP.split("[sweep]")[0] + "[sweep]\nsamples = 4\n[sweep.parameters]\n" + parameters
     if "sphere" not in parameters:
         text = text.replace("samples = 4\n", "")
-    with pytest.raises(InputError, match=rf"sweep\.parameters\.{re.escape(key)}.*{re.escape(message)}"):
+    with pytest.raises(InputError, match=rf"s\.toml: sweep\.parameters\.\"{re.escape(key)}\".*{re.escape(message)}"):
         plan(write("s.toml", text))
 
 

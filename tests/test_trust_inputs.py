@@ -86,6 +86,35 @@ def test_a_reversed_sweep_range_is_refused_by_validate(cli, write, draw):
     assert "needs low < high" in _refused(cli, write, "sweep.toml", text)
 
 
+@pytest.mark.parametrize("parameters, line_ends", [
+    ('"initial.omega[0]" = [0.001, nan]', 'sweep.parameters."initial.omega[0]"[1]: must be a finite number, found nan'),
+    ('"initial.omega[0]" = [0.001, 1e200]', 'sweep.parameters."initial.omega[0]"[1]: must be at most 1e30 in magnitude (found 1e+200): use SI units of a real body'),
+    ('"initial.omega[0]" = [0.001, "a"]', "sweep.parameters.\"initial.omega[0]\"[1]: must be a number, found 'a'"),
+    ('"initial.omega" = [[0.1, 0.2, 0.3], [0.1, "x", 0.3]]', "sweep.parameters.\"initial.omega\"[1][1]: must be a number, found 'x'"),
+    ('"initial.omega[1]" = []', 'sweep.parameters."initial.omega[1]": a grid needs at least one value'),
+    ('"initial.omega[0]" = [0.001, [1, 2]]', 'sweep.parameters."initial.omega[0]"[1]: must be a number, as the key holds, found [1.0, 2.0]'),
+    ('"initial.omega" = [[0.1, 0.2, 0.3], [0.1, 0.2]]', 'sweep.parameters."initial.omega"[1]: must be a list of 3 numbers, as the key holds, found [0.1, 0.2]'),
+    ('"initial.omega[0]" = { sphere = 1.0 }', 'sweep.parameters."initial.omega[0]": draws a 3-vector, but the key holds a number: use uniform, log_uniform or normal'),
+    ('"initial.omega" = { normal = [0.0, 1.0] }', 'sweep.parameters."initial.omega": draws a number, but the key holds a list of 3 numbers: '
+                                                  'sweep its components one by one, or use { sphere = r }'),
+])
+@pytest.mark.parametrize("command", ["validate", "sweep"])
+def test_a_bad_sweep_value_is_refused_naming_its_key_and_position(cli, write, tmp_path, parameters, line_ends, command):
+    """A bad grid value or a value of the wrong shape: one line naming the parameter and the
+    value's position, the fix where there is one, exit 2 and nothing written.  A bad grid value
+    was named by pydantic's inner name for the first variant of the union it failed ("function-
+    after[_range(), Uniform]": must be a table …); a value of the wrong shape for its key made
+    every case that drew it an error, with results written and exit 1."""
+    samples = "samples = 2\n" if "{" in parameters else ""
+    path = write("sweep.toml", FREE + f"[sweep]\n{samples}[sweep.parameters]\n{parameters}\n")
+    out = tmp_path / "out"
+    result = cli(command, str(path), *(["--outdir", str(out)] if command == "sweep" else []))
+    assert result.exit_code == 2, (result.stdout, result.stderr)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0] == f"rotlab: error: {path}: {line_ends}", result.stderr
+    assert not out.exists()
+
+
 def test_a_recording_name_without_rrd_is_refused(cli, write, tmp_path):
     path = write("ok.toml", FREE)
     result = cli("run", str(path), "-o", "out.png")

@@ -16,7 +16,7 @@ from typing import Any, Mapping, Sequence
 
 from pydantic import BaseModel, ValidationError
 
-from rotlab.config.models import DRIVE_TAGS, LOAD_MODELS, ONE_QUANTITY, Scenario
+from rotlab.config.models import DRIVE_TAGS, LOAD_MODELS, ONE_QUANTITY, SWEEP_TAGS, Scenario
 from rotlab.config.paths import drop_siblings, model_defaults, set_at
 from rotlab.errors import InputError
 
@@ -170,7 +170,8 @@ def _describe(error: Mapping[str, Any], errors: Sequence[Mapping[str, Any]] = ()
     loc = _clean_loc(raw_loc)
     ctx = error.get("ctx") or {}
     if "key" in ctx:
-        loc = loc + tuple(int(part) if part.isdigit() else part for part in str(ctx["key"]).split("."))
+        parts = ctx["key"] if isinstance(ctx["key"], (tuple, list)) else str(ctx["key"]).split(".")
+        loc = loc + tuple(int(part) if part.isdigit() else part for part in parts)
     kind = error["type"]
     if kind == "missing" and loc and isinstance(loc[-1], int) and isinstance(error.get("input"), (list, tuple)):
         return _short_vector(loc, error, errors)
@@ -212,13 +213,16 @@ def _shown(value: Any) -> str:
 
 
 def _clean_loc(loc: tuple[Any, ...]) -> tuple[Any, ...]:
-    """Drop pydantic's union-tag entries: a load's type (loads.1.torque.frame → loads.1.frame) and
-    a rotor's drive (rotors.0.torque.pd_control.kp → rotors.0.torque.kp)."""
+    """Drop pydantic's union-tag entries: a load's type (loads.1.torque.frame → loads.1.frame), a
+    rotor's drive (rotors.0.torque.pd_control.kp → rotors.0.torque.kp) and a sweep parameter's
+    shape (sweep.parameters.K.grid.1 → sweep.parameters.K[1])."""
     out: list[Any] = []
     for k, part in enumerate(loc):
         if k > 1 and loc[k - 2] == "loads" and isinstance(loc[k - 1], int) and part in LOAD_MODELS:
             continue
         if k > 2 and loc[k - 3] == "rotors" and loc[k - 1] == "torque" and part in DRIVE_TAGS:
+            continue
+        if k > 2 and loc[:2] == ("sweep", "parameters") and part in SWEEP_TAGS:
             continue
         out.append(part)
     return tuple(out)

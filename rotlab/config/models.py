@@ -83,8 +83,9 @@ def _time(value: float) -> float:
     return value
 
 
-def _invalid(key: str, message: str) -> PydanticCustomError:
-    """A semantic error attached to sub-key ``key`` of the model being validated."""
+def _invalid(key: str | tuple[str, ...], message: str) -> PydanticCustomError:
+    """A semantic error attached to sub-key ``key`` of the model being validated (dotted, or a
+    tuple of parts where a part holds dots: a sweep parameter's name)."""
     return PydanticCustomError("rotlab", message.replace("{", "(").replace("}", ")"), {"key": key})
 
 
@@ -878,7 +879,11 @@ class Sphere(_Model):
 
 
 Distribution = Union[Uniform, LogUniform, Normal, Sphere]
-GridValues = list[Union[Real, list[Real]]]
+# A grid value is a number or, for a vector field, a list of numbers: one variant validated, chosen
+# by the value's shape, so that a bad value gets that variant's message (not every variant's).
+GridValue = Annotated[Union[Annotated[Real, Tag("number")], Annotated[list[Real], Tag("vector")]],
+                      Discriminator(lambda v: "vector" if isinstance(v, (list, tuple)) else "number")]
+GridValues = list[GridValue]
 _DISTRIBUTIONS = {"uniform": Uniform, "log_uniform": LogUniform, "normal": Normal, "sphere": Sphere}
 
 
@@ -896,7 +901,12 @@ def _sweep_parameter(value: object) -> object:
     )
 
 
-SweepParameter = Annotated[Union[Distribution, GridValues], BeforeValidator(_sweep_parameter)]
+SweepParameter = Annotated[
+    Union[Annotated[Distribution, Tag("distribution")], Annotated[GridValues, Tag("grid")]],
+    Discriminator(lambda v: "grid" if isinstance(v, list) else "distribution"),
+    BeforeValidator(_sweep_parameter),
+]
+SWEEP_TAGS = ("distribution", "grid", "number", "vector")  # the tags above, dropped from an error's key
 
 
 class Sweep(_Model):
@@ -916,7 +926,7 @@ class Sweep(_Model):
         random = [k for k, v in self.parameters.items() if not isinstance(v, list)]
         for key, values in self.parameters.items():
             if isinstance(values, list) and not values:
-                raise _invalid(f"parameters.{key}", "a grid needs at least one value")
+                raise _invalid(("parameters", key), "a grid needs at least one value")
         if random and self.samples is None:
             raise _invalid("samples", f"random parameters ({', '.join(random)}) need samples = N draws")
         if not random and self.samples is not None:

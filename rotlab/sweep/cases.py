@@ -31,38 +31,80 @@ class Case:
     values: dict[str, Any]  # dotted path → value applied to the base scenario
 
 
+def parameter_key(path: str) -> str:
+    """A sweep parameter's key as the loader writes it: sweep.parameters."initial.omega[2]"."""
+    return f'sweep.parameters."{path}"'
+
+
+def check_parameters(base: cfg.Scenario, source: str) -> None:
+    """The checks of ``base.sweep``'s parameters that need the scenario (``check_path`` for each,
+    ``check_overlaps``), their errors named in ``source``, the file, as the loader names a key."""
+    try:
+        for path in base.sweep.parameters:
+            check_path(base, path)
+        check_overlaps(list(base.sweep.parameters))
+    except InputError as exc:
+        raise InputError(f"{source}: {exc.where}", exc.message) from None
+
+
 def check_path(base: cfg.Scenario, path: str) -> None:
-    """A sweep parameter's key path must name a scenario key: an unknown key is an input error
-    with the closest known key (as for the scenario's own keys)."""
+    """A sweep parameter's key path must name a scenario key (an unknown key is an input error
+    with the closest known key, as for the scenario's own keys), and its values must have that
+    key's shape: a number for a number, a list of n numbers for an n-vector.  A value of the
+    wrong shape is an error of the sweep, not of each case that draws it; whether a value is
+    valid in its case (with the case's other values) is the case's validation."""
+    target = _key_value(base, path)
+    if isinstance(target, (int, float)) or (isinstance(target, (list, tuple)) and all(isinstance(x, (int, float)) for x in target)):
+        _check_shapes(path, target, base.sweep.parameters[path])
+
+
+def _check_shapes(path: str, target: Any, parameter: Any) -> None:
+    vector = isinstance(target, (list, tuple))
+    wanted = f"a list of {len(target)} numbers" if vector else "a number"
+    if not isinstance(parameter, list):  # a distribution: a sphere draws a 3-vector, the others a number
+        drawn = 3 if isinstance(parameter, cfg.Sphere) else None
+        if drawn != (len(target) if vector else None):
+            what = "a 3-vector" if drawn else "a number"
+            raise InputError(parameter_key(path), f"draws {what}, but the key holds {wanted}: "
+                             f"{'sweep its components one by one, or use { sphere = r }' if vector else 'use uniform, log_uniform or normal'}")
+        return
+    for i, value in enumerate(parameter):
+        if isinstance(value, list) != vector or (vector and len(value) != len(target)):
+            raise InputError(f"{parameter_key(path)}[{i}]", f"must be {wanted}, as the key holds, found {value!r}")
+
+
+def _key_value(base: cfg.Scenario, path: str) -> Any:
+    """The base scenario's value at ``path`` (None where an optional section is left out)."""
     obj: Any = base
-    for part in parse_key_path(path, f"sweep.parameters.{path}"):
+    for part in parse_key_path(path, parameter_key(path)):
         if obj is None:  # an optional section the base leaves out: the case's validation checks the rest
-            return
+            return None
         if isinstance(part, int):
             if not isinstance(obj, (list, tuple)) or part >= len(obj):
-                raise InputError(f"sweep.parameters.{path}", f"index [{part}] is out of range")
+                raise InputError(parameter_key(path), f"index [{part}] is out of range")
             obj = obj[part]
             continue
         fields = list(type(obj).model_fields) if isinstance(obj, BaseModel) else []
         if part not in fields:
             close = difflib.get_close_matches(part, fields, n=1)
             hint = f"did you mean '{close[0]}'?" if close else f"allowed keys: {', '.join(fields)}" if fields else "it has no keys"
-            raise InputError(f"sweep.parameters.{path}", f"unknown key '{part}': {hint}")
+            raise InputError(parameter_key(path), f"unknown key '{part}': {hint}")
         obj = getattr(obj, part)
+    return obj
 
 
 def check_overlaps(paths: list[str]) -> None:
     """No two sweep parameters may set the same value: 'initial.omega' with 'initial.omega[1]'
     (one silently overwrote the other, depending on the order and on which one was drawn), or
     'initial.omega[2]' with 'initial.omega[02]'."""
-    parsed = [(path, tuple(parse_key_path(path, f"sweep.parameters.{path}"))) for path in paths]
+    parsed = [(path, tuple(parse_key_path(path, parameter_key(path)))) for path in paths]
     for (a, parts_a), (b, parts_b) in itertools.combinations(parsed, 2):
         (whole, whole_parts), (part, part_parts) = sorted(((a, parts_a), (b, parts_b)), key=lambda item: len(item[1]))
         if part_parts[: len(whole_parts)] != whole_parts:
             continue
         if len(part_parts) == len(whole_parts):
-            raise InputError(f"sweep.parameters.{part}", f"the same key as '{whole}': give it once")
-        raise InputError(f"sweep.parameters.{part}", f"sets part of '{whole}', which is swept too: sweep the whole value or its parts, not both")
+            raise InputError(parameter_key(part), f"the same key as '{whole}': give it once")
+        raise InputError(parameter_key(part), f"sets part of '{whole}', which is swept too: sweep the whole value or its parts, not both")
 
 
 class Cases(Sequence[Case]):
@@ -129,7 +171,7 @@ def apply(raw: dict[str, Any], base: cfg.Scenario, values: dict[str, Any]) -> di
     of a case's validation); the rest is shared with ``raw``, which validation does not change."""
     data = {key: value for key, value in raw.items() if key != "sweep"}
     for path, value in values.items():
-        set_at(data, path, value, f"sweep.parameters.{path}", model_defaults(base))
+        set_at(data, path, value, parameter_key(path), model_defaults(base))
     return data
 
 

@@ -29,7 +29,7 @@ from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError, RunFailure
 from rotlab.parallel import Stopped, TaskEnd, TaskRun, WarmWorkers, run_tasks, signals_raise_stopped
-from rotlab.sweep.cases import Case, SweepPlan, case_scenario, check_overlaps, check_path, expand
+from rotlab.sweep.cases import Case, SweepPlan, case_scenario, check_parameters, expand
 from rotlab.sweep.shared_choice import SharedChoice, initial_only, shared_choice
 from rotlab.trajectory import Trajectory, stack_runs
 
@@ -68,9 +68,7 @@ def plan(config: Path) -> SweepPlan:
     base = parse_scenario(raw, source=str(config))
     if base.sweep is None:
         raise InputError(f"{config}", "no [sweep] section: add one (README, 'Scenario files', the [sweep] row) or use `rotlab run`")
-    for path in base.sweep.parameters:
-        check_path(base, path)
-    check_overlaps(list(base.sweep.parameters))
+    check_parameters(base, str(config))
     p = SweepPlan(base, expand(base.sweep), raw, str(config))
     first = case_scenario(raw, base, p.cases[0], p.source)
     if isinstance(first, InputError):
