@@ -22,9 +22,12 @@ def row_norm(x: np.ndarray) -> np.ndarray:
 
 
 def unit_rows(x: np.ndarray) -> np.ndarray:
-    """x / |x| over the last axis (the same result as dividing by ``np.linalg.norm``), one component at a time."""
+    """x / |x| over the last axis (the same result as dividing by ``np.linalg.norm``), one component at a time.
+    A zero row gives NaN without a warning: it has no direction (a quaternion that a method drove
+    to 0 has no attitude; its drift, |Λ| − 1 = −1, says so)."""
     norm = row_norm(x)
     out = np.empty(x.shape, dtype=norm.dtype)
-    for k in range(x.shape[-1]):
-        np.divide(x[..., k], norm, out=out[..., k])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for k in range(x.shape[-1]):
+            np.divide(x[..., k], norm, out=out[..., k])
     return out

@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -379,3 +380,17 @@ def test_a_case_whose_quaternion_collapses_to_zero_reports_as_its_run_alone(writ
         assert np.array_equal(block.max_nutation_deg[k], outcome.observables["max_nutation_deg"], equal_nan=True)
         assert all(block.max_drift[name][k] == value for name, value in outcome.drift.items())
     assert np.isnan(block.max_nutation_deg[:2]).all() and np.isfinite(block.max_nutation_deg[2])
+
+
+def test_a_sweep_whose_quaternion_collapses_records_it_without_a_numpy_warning(cli, write, tmp_path):
+    """The comparison recording keeps the collapsed cases; their attitude (Λ/|Λ| of Λ = 0) is NaN,
+    which NumPy computed with "RuntimeWarning: divide by zero" printed to the user's terminal."""
+    text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 0.01, 0.0]\n'
+            '[[loads]]\ntype = "torque"\nframe = "body"\nvalue = [0.0, 0.0, 1.0]\n[time]\nend = 3.0\nsample_rate = 100\n'
+            '[solver]\nmethod = "rk4"\nstep = 4e-4\n[sweep.parameters]\n"initial.omega[2]" = [0.0, 2000.0, -6000.0]\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = cli("sweep", str(write("collapse.toml", text)), "--outdir", str(tmp_path / "out"))
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "out" / "collapse_sweep.rrd").exists()
+    assert not [w for w in caught if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in caught]
