@@ -115,6 +115,18 @@ def test_a_bad_sweep_value_is_refused_naming_its_key_and_position(cli, write, tm
     assert not out.exists()
 
 
+def test_sweep_values_of_every_shape_a_key_takes_are_accepted(cli, write):
+    """The shape check follows the key's type: a list of any length for a list (a table's times),
+    a number for a component, a 3-vector drawn on a sphere for a 3-vector."""
+    table = ('[[loads]]\ntype = "torque_table"\nframe = "body"\ntimes = [0.0, 0.5, 1.0]\n'
+             'values = [[0, 0, 0], [0, 0, 1e-6], [0, 0, 0]]\n')
+    parameters = ('"loads[0].times" = [[0.0, 0.5, 1.0], [0.0, 0.25, 1.0], [0.0, 0.2, 0.6, 1.0]]\n'
+                  '"loads[0].values[1][2]" = [1e-6, 2e-6]\n"initial.omega" = { sphere = 0.3 }\n')
+    path = write("ok.toml", FREE + table + "[sweep]\nsamples = 2\n[sweep.parameters]\n" + parameters)
+    result = cli("validate", str(path))
+    assert result.exit_code == 0 and result.stdout.startswith(f"{path}: ok"), (result.stdout, result.stderr)
+
+
 def test_a_recording_name_without_rrd_is_refused(cli, write, tmp_path):
     path = write("ok.toml", FREE)
     result = cli("run", str(path), "-o", "out.png")

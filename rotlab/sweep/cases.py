@@ -14,7 +14,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any, overload
+from types import UnionType
+from typing import Annotated, Any, Union, get_args, get_origin, overload
 
 import numpy as np
 from pydantic import BaseModel
@@ -49,48 +50,87 @@ def check_parameters(base: cfg.Scenario, source: str) -> None:
 
 def check_path(base: cfg.Scenario, path: str) -> None:
     """A sweep parameter's key path must name a scenario key (an unknown key is an input error
-    with the closest known key, as for the scenario's own keys), and its values must have that
-    key's shape: a number for a number, a list of n numbers for an n-vector.  A value of the
-    wrong shape is an error of the sweep, not of each case that draws it; whether a value is
-    valid in its case (with the case's other values) is the case's validation."""
-    target = _key_value(base, path)
-    if isinstance(target, (int, float)) or (isinstance(target, (list, tuple)) and all(isinstance(x, (int, float)) for x in target)):
-        _check_shapes(path, target, base.sweep.parameters[path])
-
-
-def _check_shapes(path: str, target: Any, parameter: Any) -> None:
-    vector = isinstance(target, (list, tuple))
-    wanted = f"a list of {len(target)} numbers" if vector else "a number"
+    with the closest known key, as for the scenario's own keys), and its values must have a shape
+    the key's type takes: a number, a list of n numbers for an n-vector, a list of any length for a
+    list.  A value of the wrong shape is an error of the sweep, not of each case that draws it;
+    whether a value is valid in its case (with the case's other values) is the case's validation."""
+    shapes = _shapes(_key_type(base, path))
+    if shapes is None:  # a type whose values are not numbers or lists of numbers: the cases' validation checks them
+        return
+    parameter = base.sweep.parameters[path]
+    wanted = " or ".join("a number" if s == NUMBER else "a list of numbers" if s == LIST else f"a list of {s} numbers" for s in sorted(shapes))
     if not isinstance(parameter, list):  # a distribution: a sphere draws a 3-vector, the others a number
-        drawn = 3 if isinstance(parameter, cfg.Sphere) else None
-        if drawn != (len(target) if vector else None):
-            what = "a 3-vector" if drawn else "a number"
-            raise InputError(parameter_key(path), f"draws {what}, but the key holds {wanted}: "
-                             f"{'sweep its components one by one, or use { sphere = r }' if vector else 'use uniform, log_uniform or normal'}")
+        drawn = 3 if isinstance(parameter, cfg.Sphere) else NUMBER
+        if not _takes(shapes, drawn):
+            what = "a 3-vector" if drawn == 3 else "a number"
+            fix = "use uniform, log_uniform or normal" if NUMBER in shapes else "sweep its components one by one, or use { sphere = r }"
+            raise InputError(parameter_key(path), f"draws {what}, but the key holds {wanted}: {fix}")
         return
     for i, value in enumerate(parameter):
-        if isinstance(value, list) != vector or (vector and len(value) != len(target)):
+        if not _takes(shapes, len(value) if isinstance(value, list) else NUMBER):
             raise InputError(f"{parameter_key(path)}[{i}]", f"must be {wanted}, as the key holds, found {value!r}")
 
 
-def _key_value(base: cfg.Scenario, path: str) -> Any:
-    """The base scenario's value at ``path`` (None where an optional section is left out)."""
+NUMBER, LIST = 0, -1  # shapes of a value: a number, a list of any length (n > 0: a list of n numbers)
+
+
+def _takes(shapes: set[int], shape: int) -> bool:
+    return shape in shapes or (shape > 0 and LIST in shapes)
+
+
+def _shapes(annotation: Any) -> set[int] | None:
+    """The shapes a type takes (``NUMBER``, n, ``LIST``), None where it takes something else."""
+    origin, args = get_origin(annotation), get_args(annotation)
+    if origin is Annotated:
+        return _shapes(args[0])
+    if origin in (Union, UnionType):
+        parts = [_shapes(a) for a in args if a is not type(None)]
+        return None if any(p is None for p in parts) else set().union(*parts)
+    if annotation in (float, int):
+        return {NUMBER}
+    numbers = all(_shapes(a) == {NUMBER} for a in args if a is not Ellipsis)
+    if origin is tuple and args and numbers:
+        return {LIST} if Ellipsis in args else {len(args)}
+    if origin is list and args and numbers:
+        return {LIST}
+    return None
+
+
+def _key_type(base: cfg.Scenario, path: str) -> Any:
+    """The type of the scenario's value at ``path`` (None where it cannot be told: an optional
+    section the base leaves out, an element of a list of tables)."""
     obj: Any = base
+    annotation: Any = None
     for part in parse_key_path(path, parameter_key(path)):
         if obj is None:  # an optional section the base leaves out: the case's validation checks the rest
             return None
         if isinstance(part, int):
             if not isinstance(obj, (list, tuple)) or part >= len(obj):
                 raise InputError(parameter_key(path), f"index [{part}] is out of range")
-            obj = obj[part]
+            obj, annotation = obj[part], _element(annotation, part)
             continue
-        fields = list(type(obj).model_fields) if isinstance(obj, BaseModel) else []
+        fields = type(obj).model_fields if isinstance(obj, BaseModel) else {}
         if part not in fields:
-            close = difflib.get_close_matches(part, fields, n=1)
+            close = difflib.get_close_matches(part, list(fields), n=1)
             hint = f"did you mean '{close[0]}'?" if close else f"allowed keys: {', '.join(fields)}" if fields else "it has no keys"
             raise InputError(parameter_key(path), f"unknown key '{part}': {hint}")
-        obj = getattr(obj, part)
-    return obj
+        obj, annotation = getattr(obj, part), fields[part].annotation
+    return annotation
+
+
+def _element(annotation: Any, index: int) -> Any:
+    """The type of element ``index`` of a tuple or list type (None where it cannot be told)."""
+    origin, args = get_origin(annotation), get_args(annotation)
+    if origin is Annotated:
+        return _element(args[0], index)
+    if origin in (Union, UnionType):
+        found = [_element(a, index) for a in args if a is not type(None)]
+        return found[0] if len(found) == 1 else None
+    if origin is tuple and args:
+        return args[0] if Ellipsis in args else args[index] if index < len(args) else None
+    if origin is list and args:
+        return args[0]
+    return None
 
 
 def check_overlaps(paths: list[str]) -> None:
