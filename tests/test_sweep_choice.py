@@ -46,9 +46,11 @@ samples = 25
 "initial.omega[2]" = [0.0, 1e-4, 0.2]
 "initial.omega[1]" = {{ uniform = [0.9, 1.1] }}
 """
-# whole vectors, one of them no vector of three (an invalid case)
+# whole vectors, and an attitude of which one is no attitude (the zero quaternion: an invalid case,
+# of the right shape; a value of the wrong shape, no vector of three, is refused with the sweep)
 VECTORS = SWEEP.split("[sweep]")[0] + """[sweep.parameters]
-"initial.omega" = [[0.05, 1.0, 0.2], [3.0, 1.0, 1e-4], [1.0, 2.0]]
+"initial.omega" = [[0.05, 1.0, 0.2], [3.0, 1.0, 1e-4], [1.0, 2.0, 0.5]]
+"initial.quaternion" = [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
 """
 
 
@@ -79,9 +81,10 @@ def test_a_sweep_over_initial_states_steps_with_one_method_that_meets_rtol_in_ev
 
 def test_a_case_that_is_invalid_is_reported_and_the_rest_run_with_the_sweeps_method(write):
     p = plan(write("s.toml", VECTORS))
-    *valid, invalid = run_cases(p, jobs=2).outcomes
-    assert invalid.status == "error" and "initial.omega" in invalid.message
-    assert [o.status for o in valid] == ["pass", "pass"] and len({o.method for o in valid}) == 1
+    outcomes = run_cases(p, jobs=2).outcomes
+    valid, invalid = outcomes[0::2], outcomes[1::2]  # (the last parameter varies fastest)
+    assert all(o.status == "error" and "initial.quaternion" in o.message for o in invalid)
+    assert [o.status for o in valid] == ["pass", "pass", "pass"] and len({o.method for o in valid}) == 1
 
 
 def test_each_case_is_the_case_run_alone_with_the_sweeps_method(write):
