@@ -207,10 +207,11 @@ def validate(
     for path in configs:
         try:
             scenario = load_scenario(path, overrides)
-            if scenario.sweep is not None:
+            if scenario.sweep is not None:  # what `rotlab sweep` checks before its first case runs
                 from rotlab.sweep.cases import check_parameters
+                from rotlab.sweep.runner import plan
 
-                check_parameters(scenario, str(path))
+                check_parameters(scenario, str(path)) if overrides else plan(path)  # (`rotlab sweep` takes no --set)
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
             for line in (*describe(scenario.body), *scenario.rotor_lines()):
                 typer.echo(f"  {line[2:]}")

@@ -92,6 +92,9 @@ def test_a_reversed_sweep_range_is_refused_by_validate(cli, write, draw):
     ('"initial.omega[0]" = [0.001, "a"]', "sweep.parameters.\"initial.omega[0]\"[1]: must be a number, found 'a'"),
     ('"initial.omega" = [[0.1, 0.2, 0.3], [0.1, "x", 0.3]]', "sweep.parameters.\"initial.omega\"[1][1]: must be a number, found 'x'"),
     ('"initial.omega[1]" = []', 'sweep.parameters."initial.omega[1]": a grid needs at least one value'),
+    ('"initial.omega[0]" = [0.1, []]', 'sweep.parameters."initial.omega[0]"[1]: must be a number, as the key holds, found []'),
+    ('"solver.order" = [8, 12.5]', 'sweep.parameters."solver.order"[1]: must be an integer, as the key holds, found 12.5'),
+    ('"solver.order" = { uniform = [8, 12] }', 'sweep.parameters."solver.order": draws a number, but the key holds an integer: give a grid of integers'),
     ('"initial.omega[0]" = [0.001, [1, 2]]', 'sweep.parameters."initial.omega[0]"[1]: must be a number, as the key holds, found [1.0, 2.0]'),
     ('"initial.omega" = [[0.1, 0.2, 0.3], [0.1, 0.2]]', 'sweep.parameters."initial.omega"[1]: must be a list of 3 numbers, as the key holds, found [0.1, 0.2]'),
     ('"initial.omega[0]" = { sphere = 1.0 }', 'sweep.parameters."initial.omega[0]": draws a 3-vector, but the key holds a number: use uniform, log_uniform or normal'),
@@ -125,6 +128,16 @@ def test_sweep_values_of_every_shape_a_key_takes_are_accepted(cli, write):
     path = write("ok.toml", FREE + table + "[sweep]\nsamples = 2\n[sweep.parameters]\n" + parameters)
     result = cli("validate", str(path))
     assert result.exit_code == 0 and result.stdout.startswith(f"{path}: ok"), (result.stdout, result.stderr)
+
+
+def test_an_integer_key_is_swept_with_integers(cli, write, tmp_path):
+    """A grid's integers stay integers: solver.order = [8, 12] ran no case before (each value became
+    a float, which the integer key refuses: every case an error)."""
+    text = FREE + '[solver]\nmethod = "taylor"\norder = 10\n[sweep.parameters]\n"solver.order" = [8, 12]\n'
+    path = write("order.toml", text)
+    assert cli("validate", str(path)).exit_code == 0
+    result = cli("sweep", str(path), "--outdir", str(tmp_path / "out"))
+    assert result.exit_code == 0 and "2 passed, 0 failed" in result.stdout, (result.stdout, result.stderr)
 
 
 def test_a_recording_name_without_rrd_is_refused(cli, write, tmp_path):

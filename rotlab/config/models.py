@@ -879,9 +879,17 @@ class Sphere(_Model):
 
 
 Distribution = Union[Uniform, LogUniform, Normal, Sphere]
+def _grid_number(value: object) -> object:
+    """A grid's number as ``Real`` checks it, an integer kept an integer (a case's integer key,
+    such as solver.order, takes no float)."""
+    number = _real(value)
+    return value if isinstance(value, int) else number
+
+
 # A grid value is a number or, for a vector field, a list of numbers: one variant validated, chosen
 # by the value's shape, so that a bad value gets that variant's message (not every variant's).
-GridValue = Annotated[Union[Annotated[Real, Tag("number")], Annotated[list[Real], Tag("vector")]],
+GridNumber = Annotated[Union[int, float], BeforeValidator(_grid_number), _SchemaBounds(minimum=-MAX_MAGNITUDE, maximum=MAX_MAGNITUDE)]
+GridValue = Annotated[Union[Annotated[GridNumber, Tag("number")], Annotated[list[Real], Tag("vector")]],
                       Discriminator(lambda v: "vector" if isinstance(v, (list, tuple)) else "number")]
 GridValues = list[GridValue]
 _DISTRIBUTIONS = {"uniform": Uniform, "log_uniform": LogUniform, "normal": Normal, "sphere": Sphere}

@@ -58,28 +58,35 @@ def check_path(base: cfg.Scenario, path: str) -> None:
     if shapes is None:  # a type whose values are not numbers or lists of numbers: the cases' validation checks them
         return
     parameter = base.sweep.parameters[path]
-    wanted = " or ".join("a number" if s == NUMBER else "a list of numbers" if s == LIST else f"a list of {s} numbers" for s in sorted(shapes))
-    if not isinstance(parameter, list):  # a distribution: a sphere draws a 3-vector, the others a number
+    wanted = " or ".join(_SHAPE_WORDS.get(s, f"a list of {s} numbers") for s in sorted(shapes))
+    if not isinstance(parameter, list):  # a distribution: a sphere draws a 3-vector, the others a float
         drawn = 3 if isinstance(parameter, cfg.Sphere) else NUMBER
         if not _takes(shapes, drawn):
             what = "a 3-vector" if drawn == 3 else "a number"
-            fix = "use uniform, log_uniform or normal" if NUMBER in shapes else "sweep its components one by one, or use { sphere = r }"
+            fix = ("give a grid of integers" if INTEGER in shapes else "use uniform, log_uniform or normal" if NUMBER in shapes
+                   else "sweep its components one by one, or use { sphere = r }")
             raise InputError(parameter_key(path), f"draws {what}, but the key holds {wanted}: {fix}")
         return
     for i, value in enumerate(parameter):
-        if not _takes(shapes, len(value) if isinstance(value, list) else NUMBER):
+        if not _takes(shapes, _shape_of(value)):
             raise InputError(f"{parameter_key(path)}[{i}]", f"must be {wanted}, as the key holds, found {value!r}")
 
 
-NUMBER, LIST = 0, -1  # shapes of a value: a number, a list of any length (n > 0: a list of n numbers)
+INTEGER, NUMBER, LIST = -3, -2, -1  # shapes of a value: an integer, a number, a list of any length (n ≥ 0: a list of n numbers)
+_SHAPE_WORDS = {INTEGER: "an integer", NUMBER: "a number", LIST: "a list of numbers"}
+
+
+def _shape_of(value: Any) -> int:
+    return len(value) if isinstance(value, list) else INTEGER if isinstance(value, int) else NUMBER
 
 
 def _takes(shapes: set[int], shape: int) -> bool:
-    return shape in shapes or (shape > 0 and LIST in shapes)
+    """Whether a key of ``shapes`` takes a value of ``shape`` (a number takes an integer, a list a list of any length)."""
+    return shape in shapes or (shape == INTEGER and NUMBER in shapes) or (shape >= 0 and LIST in shapes)
 
 
 def _shapes(annotation: Any) -> set[int] | None:
-    """The shapes a type takes (``NUMBER``, n, ``LIST``), None where it takes something else."""
+    """The shapes a type takes (``INTEGER``, ``NUMBER``, n, ``LIST``), None where it takes something else."""
     origin, args = get_origin(annotation), get_args(annotation)
     if origin is Annotated:
         return _shapes(args[0])
@@ -87,8 +94,8 @@ def _shapes(annotation: Any) -> set[int] | None:
         parts = [_shapes(a) for a in args if a is not type(None)]
         return None if any(p is None for p in parts) else set().union(*parts)
     if annotation in (float, int):
-        return {NUMBER}
-    numbers = all(_shapes(a) == {NUMBER} for a in args if a is not Ellipsis)
+        return {NUMBER if annotation is float else INTEGER}
+    numbers = all(_shapes(a) in ({NUMBER}, {INTEGER}) for a in args if a is not Ellipsis)
     if origin is tuple and args and numbers:
         return {LIST} if Ellipsis in args else {len(args)}
     if origin is list and args and numbers:
