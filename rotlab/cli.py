@@ -207,11 +207,14 @@ def validate(
     for path in configs:
         try:
             scenario = load_scenario(path, overrides)
-            if scenario.sweep is not None:  # what `rotlab sweep` checks before its first case runs
+            if scenario.sweep is not None and overrides:  # (`rotlab sweep` takes no --set: its checks on the values given)
                 from rotlab.sweep.cases import check_parameters
+
+                check_parameters(scenario, str(path))
+            elif scenario.sweep is not None:  # what `rotlab sweep` checks before its first case runs
                 from rotlab.sweep.runner import plan
 
-                check_parameters(scenario, str(path)) if overrides else plan(path)  # (`rotlab sweep` takes no --set)
+                plan(path)
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
             for line in (*describe(scenario.body), *scenario.rotor_lines()):
                 typer.echo(f"  {line[2:]}")

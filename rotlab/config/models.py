@@ -879,6 +879,8 @@ class Sphere(_Model):
 
 
 Distribution = Union[Uniform, LogUniform, Normal, Sphere]
+
+
 def _grid_number(value: object) -> object:
     """A grid's number as ``Real`` checks it, an integer kept an integer (a case's integer key,
     such as solver.order, takes no float)."""
