@@ -9,7 +9,8 @@ Needs the whole of rotlab (its configuration reads the scenes), unlike ``bench_g
 ``--cases`` cases of a shipped config with ω₀ dispersed by 0.05 rad/s (seed 7), ended at its end
 time × ``--scale``, every case's samples kept (every sample of cases 0 and 1 compared in full).
 Columns: the fields of ``BlockResult`` that differ (none: bit for bit), the largest relative
-difference of the last valid states, the first sample at which case 0's states differ.
+difference of the last valid states (``cross_check.relative_difference``), the first sample at
+which case 0's states differ.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import numpy as np
 
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.ensemble.block import run_block
+from rotlab.ensemble.cross_check import relative_difference
 from rotlab.methods.base import Settings
 from rotlab.methods.registry import get_method
 from rotlab.scene.scene import build_scene
@@ -57,11 +59,11 @@ def scenes_of(config: str, end: float, method: str, changes: dict, loads: tuple[
     return scenes
 
 
-def relative(a: np.ndarray, b: np.ndarray) -> float:
-    """max |a − b| / max |b| over the rows' components (∞ where they are not finite alike)."""
-    if not np.array_equal(np.isfinite(a), np.isfinite(b)):
-        return np.inf
-    return float(np.max(np.abs(a - b), initial=0.0) / max(float(np.max(np.abs(b), initial=0.0)), 1e-300))
+def last_states_apart(gpu: np.ndarray, cpu: np.ndarray) -> float:
+    """The cross-check's relative difference of the last states, over all cases, relative to the
+    largest finite component of the CPU's."""
+    finite = np.abs(cpu[np.isfinite(cpu)])
+    return relative_difference(gpu, cpu, float(np.max(finite, initial=0.0)))
 
 
 def compare(config: str, end: float, method: str, changes: dict, loads, cases: int) -> None:
@@ -78,7 +80,7 @@ def compare(config: str, end: float, method: str, changes: dict, loads, cases: i
     first = f"{apart[0]} (t = {t[apart[0]]:.6g} s)" if apart.size else ("—" if kept_cpu.shape == kept_gpu.shape else "lengths differ")
     loads_kept = "all" if loads is None else ", ".join(loads)
     print(f"| {config} | {end:g} | {loads_kept} | {method} | {cases} | {t.shape[0]:,} | {', '.join(differ) or 'none'} | "
-          f"{relative(gpu.last, cpu.last):.1e} | {first} | {time.perf_counter() - started:.0f} |", flush=True)
+          f"{last_states_apart(gpu.last, cpu.last):.1e} | {first} | {time.perf_counter() - started:.0f} |", flush=True)
 
 
 def main() -> None:

@@ -194,7 +194,7 @@ def validate(
 ) -> None:
     """Check scenario files without running them (one line per file)."""
     from rotlab.batch.runner import collect_configs
-    from rotlab.config import load_scenario
+    from rotlab.config.loader import parse_scenario, read_toml
     from rotlab.errors import InputError
     from rotlab.geometry_inertia import describe
 
@@ -206,15 +206,16 @@ def validate(
     failed = 0
     for path in configs:
         try:
-            scenario = load_scenario(path, overrides)
+            raw = read_toml(path)
+            scenario = parse_scenario(raw, source=str(path), overrides=overrides)
             if scenario.sweep is not None and overrides:  # (`rotlab sweep` takes no --set: its checks on the values given)
                 from rotlab.sweep.cases import check_parameters
 
                 check_parameters(scenario, str(path))
             elif scenario.sweep is not None:  # what `rotlab sweep` checks before its first case runs
-                from rotlab.sweep.runner import plan
+                from rotlab.sweep.runner import plan_of
 
-                plan(path)
+                plan_of(raw, scenario, str(path))
             typer.echo(f"{path}: ok ({scenario.time.sample_count:,} samples, method {scenario.solver.method})")
             for line in (*describe(scenario.body), *scenario.rotor_lines()):
                 typer.echo(f"  {line[2:]}")

@@ -412,7 +412,7 @@ def _drive_rotors(t, y, dy, c, n, drives):
 
     def impl(t, y, dy, c, n, drives):
         ex = drives.ex
-        nx, ny, nz = plus_torque((0.0, 0.0, 0.0), n)
+        nx, ny, nz = plus_torque((0.0, 0.0, 0.0), n)  # (n, or 0 without a load that does work: the drives do work)
         cx, cy, cz, nx, ny, nz = rotor_drives(t, y, dy, (c[0], c[1], c[2], nx, ny, nz), ex.rows, ex.fn, ex.axes, ex.axes_q,
                                               ex.moments, drives.offset, drives.axes)
         return (cx, cy, cz), (nx, ny, nz)

@@ -84,7 +84,7 @@ def disagreement(gpu: Reported, cpu: Reported, positions: list[int]) -> tuple[in
     for j, k in enumerate(positions):
         if gpu.status[k] != cpu.status[j] or gpu.valid[k] != cpu.valid[j]:
             return k, f"status {gpu.status[k]} against {cpu.status[j]}, {gpu.valid[k]} samples against {cpu.valid[j]}"
-        state = _relative(gpu.last[k], cpu.last[j], float(np.max(np.abs(cpu.last[j]))))
+        state = relative_difference(gpu.last[k], cpu.last[j], float(np.max(np.abs(cpu.last[j]))))
         if not state <= TOLERANCE:
             return k, f"last state {_vector(gpu.last[k])} against {_vector(cpu.last[j])}, relative difference {state:.1e}"
         observables = {"flip period": (gpu.flip_period[k], cpu.flip_period[j], abs(cpu.flip_period[j])),
@@ -92,12 +92,12 @@ def disagreement(gpu: Reported, cpu: Reported, positions: list[int]) -> tuple[in
                        **{f"max {name} drift": (gpu.max_drift[name][k], cpu.max_drift[name][j], max(abs(cpu.max_drift[name][j]), 1.0))
                           for name in cpu.max_drift}}
         for name, (a, b, scale) in observables.items():
-            if not _relative(a, b, scale) <= TOLERANCE:
+            if not relative_difference(a, b, scale) <= TOLERANCE:
                 return k, f"{name} {a:.9g} against {b:.9g}"
     return None
 
 
-def _relative(a, b, scale: float) -> float:
+def relative_difference(a, b, scale: float) -> float:
     """max |a − b| / scale over the finite entries (∞ where the entries that are not finite are
     not the same: NaN against NaN is the same, +∞ against −∞ is not; 0 where they are equal)."""
     a, b = np.atleast_1d(np.asarray(a, dtype=float)), np.atleast_1d(np.asarray(b, dtype=float))

@@ -65,11 +65,15 @@ def plan(config: Path) -> SweepPlan:
     """Read the config, expand its [sweep] and validate the first case (a bad first case is a bad
     sweep; the others are validated where they run)."""
     raw = read_toml(config)
-    base = parse_scenario(raw, source=str(config))
+    return plan_of(raw, parse_scenario(raw, source=str(config)), str(config))
+
+
+def plan_of(raw: dict[str, Any], base: cfg.Scenario, source: str) -> SweepPlan:
+    """``plan`` of a document already read (``raw``) and validated (``base``)."""
     if base.sweep is None:
-        raise InputError(f"{config}", "no [sweep] section: add one (README, 'Scenario files', the [sweep] row) or use `rotlab run`")
-    check_parameters(base, str(config))
-    p = SweepPlan(base, expand(base.sweep), raw, str(config))
+        raise InputError(source, "no [sweep] section: add one (README, 'Scenario files', the [sweep] row) or use `rotlab run`")
+    check_parameters(base, source)
+    p = SweepPlan(base, expand(base.sweep), raw, source)
     first = case_scenario(raw, base, p.cases[0], p.source)
     if isinstance(first, InputError):
         raise first
