@@ -23,8 +23,7 @@ def row_norm(x: np.ndarray) -> np.ndarray:
 
 def unit_rows(x: np.ndarray) -> np.ndarray:
     """x / |x| over the last axis (the same result as dividing by ``np.linalg.norm``), one component at a time.
-    A zero row gives NaN without a warning: it has no direction (a quaternion that a method drove
-    to 0 has no attitude; its drift, |Λ| − 1 = −1, says so)."""
+    A zero row gives NaN without a warning: it has no direction."""
     norm = row_norm(x)
     out = np.empty(x.shape, dtype=norm.dtype)
     with np.errstate(divide="ignore", invalid="ignore"):

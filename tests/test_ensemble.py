@@ -353,11 +353,12 @@ def test_an_adaptive_case_that_cannot_finish_stops_as_its_single_run_stops(metho
         assert block.steps[k] == traj.stats.steps and block.valid[k] == traj.t.shape[0] < t.shape[0]
 
 
-def test_a_case_whose_quaternion_collapses_to_zero_reports_as_its_run_alone(write):
-    """rk4 (no renormalisation) far past its stable step drives |Λ| to 0 exactly: the ensemble's
-    observables divided by |Λ| (a ZeroDivisionError inside the parallel kernel: a traceback,
-    before) and dropped the NaNs the stored-trajectory report keeps. Now every sample is the run
-    alone's, the nutation is NaN in both (no attitude), and the drifts are equal."""
+def test_a_case_whose_quaternion_collapses_stops_as_its_run_alone(write):
+    """rk4 (no renormalisation) far past its stable step drives |Λ| towards 0 (exactly 0 within
+    3 s, before: NaN attitudes, a "pass", and a ZeroDivisionError inside the parallel kernel
+    before that).  Every case stops where its run alone stops, at the first state whose |Λ| is
+    below ~1.5e-154 (``state_status``), with the same words, samples and observables; the
+    third case keeps |Λ| and passes in both."""
     from rotlab import api
 
     text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 0.01, 0.0]\n'
@@ -374,23 +375,28 @@ def test_a_case_whose_quaternion_collapses_to_zero_reports_as_its_run_alone(writ
     block = run_block(scenes, m, settings, t, [0, 1, 2], 1, [None] * 3)
     alone = [api.run_scene(scene, plan=(m, "alone", settings, t)) for scene in scenes]
     report = outcomes_of([(Case(k, {}), traj, 0.0) for k, traj in enumerate(alone)])
-    assert min(np.min(np.linalg.norm(traj._state[:, :4], axis=1)) for traj in alone[:2]) == 0.0  # the collapse happens
+    assert [traj.stats.failure is not None and "the attitude is lost" in traj.stats.failure for traj in alone] == [True, True, False]
+    assert block.failure == [traj.stats.failure for traj in alone]
+    assert np.all(np.linalg.norm(np.concatenate([traj._state[:, :4] for traj in alone]), axis=1) >= 1.49e-154)
     for k, (traj, outcome) in enumerate(zip(alone, report)):
-        assert np.array_equal(block.kept[k][1], traj._state)
-        assert np.array_equal(block.max_nutation_deg[k], outcome.observables["max_nutation_deg"], equal_nan=True)
+        assert block.valid[k] == traj.t.shape[0] and np.array_equal(block.kept[k][1], traj._state)
+        assert block.max_nutation_deg[k] == outcome.observables["max_nutation_deg"]
         assert all(block.max_drift[name][k] == value for name, value in outcome.drift.items())
-    assert np.isnan(block.max_nutation_deg[:2]).all() and np.isfinite(block.max_nutation_deg[2])
+    assert block.valid[0] < t.shape[0] and block.valid[1] < t.shape[0] and block.valid[2] == t.shape[0]
 
 
 def test_a_sweep_whose_quaternion_collapses_records_it_without_a_numpy_warning(cli, write, tmp_path):
-    """The comparison recording keeps the collapsed cases; their attitude (Λ/|Λ| of Λ = 0) is NaN,
-    which NumPy computed with "RuntimeWarning: divide by zero" printed to the user's terminal."""
+    """The comparison recording keeps the collapsing cases' valid samples (NumPy printed
+    "RuntimeWarning: divide by zero" to the user's terminal when their Λ reached 0, in a sweep
+    that passed); the two cases fail (exit 1), the third passes."""
     text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 0.01, 0.0]\n'
             '[[loads]]\ntype = "torque"\nframe = "body"\nvalue = [0.0, 0.0, 1.0]\n[time]\nend = 3.0\nsample_rate = 100\n'
             '[solver]\nmethod = "rk4"\nstep = 4e-4\n[sweep.parameters]\n"initial.omega[2]" = [0.0, 2000.0, -6000.0]\n')
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = cli("sweep", str(write("collapse.toml", text)), "--outdir", str(tmp_path / "out"))
-    assert result.exit_code == 0, result.stderr
+    assert result.exit_code == 1, result.stderr
+    rows = list(csv.DictReader((tmp_path / "out" / "results.csv").open()))
+    assert [r["status"] for r in rows] == ["fail", "fail", "pass"] and "the attitude is lost" in rows[0]["message"]
     assert (tmp_path / "out" / "collapse_sweep.rrd").exists()
     assert not [w for w in caught if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in caught]

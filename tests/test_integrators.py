@@ -129,6 +129,54 @@ def test_blow_up_stops_with_a_message_and_keeps_valid_samples(cli, write, tmp_pa
     assert t[-1] == pytest.approx(0.5) and np.all(np.isfinite(w))
 
 
+_COLLAPSING = (  # rk4 at h·|ω| = 2.79 (under its stability limit 2.8): |Λ| shrinks by |R(1.395i)| ≈ 0.96 a step
+    "[body]\nprincipal_moments = [0.010, 0.016, 0.022]\n[initial]\nomega = [0.0, 0.0, 279.0]\n"
+    "[time]\nend = 100.0\nsample_rate = 10\n[solver]\nmethod = \"rk4\"\nstep = 0.01\n"
+)
+
+
+@pytest.mark.parametrize("exponent", [0, -153, -154, -160, -400, 150, 154, 155, 160])
+@pytest.mark.parametrize("broken", [None, 4, 7])
+def test_a_state_with_a_lost_attitude_is_refused_by_one_rule(exponent, broken):
+    """``state_status`` (the kernels') and ``valid_rows`` (NumPy's) agree: a state is stored only
+    when it is finite and |Λ|² is a normal double, |Λ| between ~1.49e-154 and ~1.34e154."""
+    from rotlab.core.kernel_status import ATTITUDE_LOST, NONFINITE, OK, state_status, valid_rows
+
+    y = np.array([0.6, 0.0, 0.8, 0.0, 1.0, 2.0, 3.0, 0.5])
+    y[:4] *= 10.0**exponent
+    if broken is not None:
+        y[broken] = np.nan
+    expected = NONFINITE if broken is not None else (OK if -153 <= exponent <= 154 else ATTITUDE_LOST)
+    assert state_status(y) == expected
+    assert valid_rows(y[None, :])[0] == (expected == OK)
+
+
+def test_a_collapsing_quaternion_stops_the_run_and_the_sweep_alike(cli, write, tmp_path):
+    """rk4 drives |Λ| below ~1.5e-154 near t = 88 s: the run stops there (exit 1, one line that
+    says the attitude is lost), keeping only samples whose Λ can be normalised; the same case in
+    a sweep fails with the same words at the same sample (it ran to t = 100 s with exit 0 and NaN
+    attitudes before)."""
+    path = write("collapse.toml", _COLLAPSING)
+    result = cli("run", str(path), "-o", "collapse.rrd")
+    assert result.exit_code == 1
+    line, = result.stderr.strip().splitlines()
+    assert "the attitude is lost between t = 87.8 s and t = 87.9 s" in line and "take a smaller solver.step" in line
+    from rotlab.recording import layout
+    from rotlab.recording.reader import read_series
+
+    t, q = read_series(tmp_path / "collapse.partial.rrd", layout.QUATERNION)
+    norms = np.linalg.norm(q, axis=1)
+    assert t.shape[0] == 879 and np.all(norms >= 1.49e-154) and norms[-1] < 1e-153
+    write("sweep.toml", _COLLAPSING + '[sweep]\n[sweep.parameters]\n"initial.omega[2]" = [27.9, 279.0]\n')
+    swept = cli("sweep", "sweep.toml", "-o", "swept")
+    assert swept.exit_code == 1
+    import csv
+
+    rows = list(csv.DictReader((tmp_path / "swept" / "results.csv").open()))
+    assert [r["status"] for r in rows] == ["pass", "fail"]
+    assert rows[1]["message"] in line and int(rows[1]["steps"]) == 8790
+
+
 def test_adaptive_steps_never_jump_over_a_short_pulse():
     """A 0.01 s torque pulse in a 10 s quiet run: its impulse M·Δt = 0.02 N·m·s must land in
     full (steps end at the window edges), to 1e-12."""

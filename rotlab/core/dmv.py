@@ -52,7 +52,7 @@ import math
 import numpy as np
 from numba import njit
 
-from rotlab.core.kernel_status import NONFINITE, OK, end_sample
+from rotlab.core.kernel_status import OK, end_sample
 
 
 ORDERS = (2, 4, 6, 8, 10, 12)
@@ -244,7 +244,8 @@ def dmv_advance(y, times, out, i_start, substeps, max_steps, model, order, coeff
         steps += substeps
         y[0], y[1], y[2], y[3] = q0, q1, q2, q3
         y[4], y[5], y[6] = m1 * inv1, m2 * inv2, m3 * inv3
-        if end_sample(y, out, i) != OK:
-            return NONFINITE, i, steps
+        status = end_sample(y, out, i)
+        if status != OK:
+            return status, i, steps
         i += 1
     return OK, i, steps

@@ -20,9 +20,9 @@ from numba.extending import overload
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
 from rotlab.core.dynamics import all_finite, count_at_or_below, next_piece, rhs_called, rhs_llvm_inlined, state_size, store_row
+from rotlab.core.kernel_status import NONFINITE, OK, STEP_TOO_SMALL, state_status
 from rotlab.core.targets import gpu_overload, next_toward, on_gpu, work_matrix, work_vector
 
-OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
 _A = np.ascontiguousarray(_coef.A, dtype=np.float64)  # (16, 16)
 _C = np.ascontiguousarray(_coef.C, dtype=np.float64)  # (16,)
@@ -171,8 +171,9 @@ def dop853_advance(y, t, h, times, out, i_start, t_end, rtol, atol, max_steps, m
                 K[0, m] = K[_STAGES, m]
             t = t_new
             fresh = at_break  # the next step starts from the right limit of the loads
-            if not all_finite(y):
-                return NONFINITE, i, t, h
+            status = state_status(y)
+            if status != OK:
+                return status, i, t, h
             if err == 0.0:
                 factor = _MAX_FACTOR
             else:

@@ -14,7 +14,7 @@ from __future__ import annotations
 from numba import njit
 
 from rotlab.core.dynamics import count_at_or_below, next_piece, rhs_llvm_inlined, state_size
-from rotlab.core.kernel_status import NONFINITE, OK, end_sample
+from rotlab.core.kernel_status import OK, end_sample
 from rotlab.core.targets import work_vector
 
 
@@ -24,8 +24,8 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
     """Advance ``y`` (the state at ``times[i_start − 1]``) sample by sample, writing ``out[i]``.
 
     Stops after at most ``max_steps`` steps (at a sample).  Returns (status, next sample index,
-    steps taken, partial steps at breakpoints included); on NONFINITE the returned index is the
-    sample whose interval failed.  ``model``: the scene's ``rotlab.scene.loads.Model`` (its
+    steps taken, partial steps at breakpoints included); on another status than OK
+    (``state_status``) the returned index is the sample whose interval failed.  ``model``: the scene's ``rotlab.scene.loads.Model`` (its
     ``breaks``: sorted load breakpoints, may be empty).
     """
     n = state_size(model)  # (8; more with driven rotors)
@@ -61,7 +61,8 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
                     y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
                 steps += 1
                 t = end
-        if end_sample(y, out, i) != OK:
-            return NONFINITE, i, steps
+        status = end_sample(y, out, i)
+        if status != OK:
+            return status, i, steps
         i += 1
     return OK, i, steps

@@ -24,7 +24,7 @@ import math
 from numba import njit
 
 from rotlab.core.dynamics import count_at_or_below, next_piece, rhs_llvm_inlined, state_size
-from rotlab.core.kernel_status import NONFINITE, OK, end_sample
+from rotlab.core.kernel_status import OK, end_sample
 from rotlab.core.splitting import SMALL_ANGLE, sin_cos_small
 from rotlab.core.targets import work_vector
 
@@ -132,7 +132,8 @@ def rkmk4_advance(y, times, out, i_start, substeps, max_steps, model):
                     y[m] += h / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m])
                 steps += 1
                 t = end
-        if end_sample(y, out, i) != OK:
-            return NONFINITE, i, steps
+        status = end_sample(y, out, i)
+        if status != OK:
+            return status, i, steps
         i += 1
     return OK, i, steps

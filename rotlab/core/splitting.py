@@ -49,8 +49,8 @@ import math
 import numpy as np
 from numba import njit, types
 
-from rotlab.core.dynamics import all_finite, store_row
-from rotlab.core.kernel_status import NONFINITE, OK
+from rotlab.core.dynamics import store_row
+from rotlab.core.kernel_status import OK, state_status
 from rotlab.core.targets import overload
 from rotlab.core.torques import conservative_torque, has_forces
 
@@ -277,8 +277,9 @@ def splitting_advance(y, times, out, i_start, substeps, max_steps, model, order)
         steps += substeps
         y[0], y[1], y[2], y[3] = q0, q1, q2, q3
         y[4], y[5], y[6] = _less_rotors(l1, rotors, 0) * inv1, _less_rotors(l2, rotors, 1) * inv2, _less_rotors(l3, rotors, 2) * inv3
-        if not all_finite(y):  # (end_sample's check, written out: a contracting kernel's FMAs depend on its code's shape)
-            return NONFINITE, i, steps
+        status = state_status(y)  # (end_sample written out: a contracting kernel's FMAs depend on its code's shape)
+        if status != OK:
+            return status, i, steps
         store_row(out, i, y)
         i += 1
     return OK, i, steps

@@ -35,12 +35,12 @@ from functools import cache
 import numpy as np
 from numba import njit
 
-from rotlab.core.dynamics import STATE_SIZE, all_finite, count_at_or_below, next_piece, store_row
+from rotlab.core.dynamics import STATE_SIZE, count_at_or_below, next_piece, store_row
 from rotlab.core.expressions import release_forced
+from rotlab.core.kernel_status import OK, STEP_TOO_SMALL, state_status
 from rotlab.core.quaternion import N_PRODUCTS, cross_array, rotate_quadratic
 from rotlab.core.torques import F_FORCE, F_POINT, load_series, nonconservative_series, series_workspace, switch_step, with_gyrostatic
 
-OK, NONFINITE, STEP_TOO_SMALL = 0, 1, 3
 
 
 def default_order(rtol: float) -> int:
@@ -254,8 +254,9 @@ def taylor_advance(y, t, times, out, i, order, rtol, atol, max_steps, model, c0,
         t = t_new
         steps += 1
         counters[0] += 1
-        if not all_finite(y):
-            return NONFINITE, i, t
+        status = state_status(y)
+        if status != OK:
+            return status, i, t
     return OK, i, t
 
 

@@ -21,14 +21,14 @@ import numpy as np
 from numba import parallel_chunksize
 
 from rotlab.checks import period_of
-from rotlab.core.kernel_status import NONFINITE, OK, STALLED
+from rotlab.core.kernel_status import ATTITUDE_LOST, NONFINITE, OK, STALLED
 from rotlab.ensemble import observe as ob
 from rotlab.ensemble.cross_check import GpuDisagreement, checked_cases, disagreement, library_calls
 from rotlab.ensemble.event_scan import BETWEEN_FAULT, FAULT_COLUMNS, FAULT_EVENT, FAULT_FORMULA, FAULT_KIND, FAULT_T0, FAULT_T1, \
     FOUND_COLUMNS, NO_FAULT, EventInputs
 from rotlab.errors import InputError, RunFailure, first_line
 from rotlab.methods.base import Settings
-from rotlab.methods.stepping import CHUNK_STEPS, budget_message, nonfinite_after, stall_message, step_floor_message
+from rotlab.methods.stepping import CHUNK_STEPS, budget_message, stall_message, state_failure_after, step_floor_message
 from rotlab.scene.scene import Scene
 from rotlab.trajectory import reference_of, runs_of
 
@@ -306,9 +306,9 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
             continue
         if fault[k, FAULT_KIND] != NO_FAULT:  # (before a non-finite state: the event's formula stopped the case first)
             failure[k] = event_failure(compiled, fault[k])
-        elif status[k] == NONFINITE:
-            failure[k] = _formula_fault(method, scenes[k], t, settings) or nonfinite_after(float(t[valid[k] - 1]),
-                                                                                           float(t[min(valid[k], n - 1)]), last[k])
+        elif status[k] in (NONFINITE, ATTITUDE_LOST):
+            formula = _formula_fault(method, scenes[k], t, settings) if status[k] == NONFINITE else None
+            failure[k] = formula or state_failure_after(int(status[k]), float(t[valid[k] - 1]), float(t[min(valid[k], n - 1)]), last[k])
         elif status[k] == STALLED:
             failure[k] = stall_message(clocks[k, 1], clocks[k, 0], int(clocks[k, 2]), float(t[n - 1]),
                                        settings.max_steps - int(steps[k] + rejected[k]), settings.max_steps)

@@ -17,8 +17,6 @@ a case holds its N rows while it runs.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import literally, njit, prange, types
 from numba.extending import overload
@@ -26,7 +24,7 @@ from numba.extending import overload
 from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
-from rotlab.core.kernel_status import OK, STALLED, pace_judged, stall_needs, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
+from rotlab.core.kernel_status import OK, STALLED, first_invalid_row, pace_judged, stall_needs, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
 from rotlab.ensemble.event_scan import event_scratch, open_events, scan_events
 from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
@@ -98,17 +96,6 @@ def own_model(model, expressions):
 
 
 @njit(cache=True)
-def _finite_rows(rows, start, stop):
-    """The end of the run of finite rows from ``start`` (≤ ``stop``): a kernel that stops on a
-    non-finite state may have written rows past its last valid one (``stepping._valid_rows``)."""
-    for i in range(start, stop):
-        for m in range(rows.shape[1]):
-            if not math.isfinite(rows[i, m]):
-                return i
-    return stop
-
-
-@njit(cache=True)
 def keep_samples(rows, times, start, stop, offset, stride, kept, kept_t, count):
     """Copy the rows ``start … stop − 1`` whose sample index (row + ``offset``) is a multiple of
     ``stride`` into ``kept`` after its ``count[0]`` rows."""
@@ -159,7 +146,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, expressio
             code, j, done = advance_of(literally(method), y, times[lo:hi], rows, 1, substeps[b], max_steps - taken, mine, extra)
             taken += done
             if code != OK:
-                j = _finite_rows(rows, 1, j)
+                j = first_invalid_row(rows, 1, j)
             made = j
             j = scan_events(literally(method), solver, mine, events, times[lo:hi], rows, j, found[b], fault[b], watch)
             observe_rows(times[lo:hi], rows, 1, j, False, constants, forces, folded)
@@ -246,7 +233,7 @@ def report_whole(b, code, i, rows, times, case, shared, applies, forces, status,
     its observables, its last valid state, its kept samples (``folded``, ``count``: scratch of
     ``ACC_COLUMNS`` floats and one integer)."""
     if code != OK:
-        i = _finite_rows(rows, 1, i)
+        i = first_invalid_row(rows, 1, i)
     observe_rows(times, rows, 0, i, True, constants_of(case[b], shared, applies), forces, folded)
     store_row(acc, b, folded)
     count[0] = 0
@@ -264,7 +251,7 @@ def scan_whole(method, solver, model, events, times, rows, i, code, found, fault
     opened: ``open_events``), with status ``code``: the end of its valid rows (``event_scan``; a
     kernel stopped by a non-finite state may have written rows past its last valid one)."""
     if code != OK:
-        i = _finite_rows(rows, 1, i)
+        i = first_invalid_row(rows, 1, i)
     return scan_events(method, solver, model, events, times, rows, i, found, fault, watch)
 
 

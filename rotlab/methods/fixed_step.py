@@ -23,7 +23,7 @@ import numpy as np
 from rotlab.errors import InputError
 from rotlab.methods import cost
 from rotlab.methods.base import FIXED, LocalSolution, ProgressCallback, Settings, Solution
-from rotlab.methods.stepping import CHUNK_STEPS, initial_state, nonfinite_message, run_chunks
+from rotlab.methods.stepping import CHUNK_STEPS, initial_state, run_chunks, state_failure_message
 from rotlab.scene.scene import Scene
 
 PROBE_RADIANS = 20.0  # probe span: about 20 rad of the scene's characteristic rotation
@@ -163,7 +163,7 @@ class FixedStepMethod:
         model, extra = scene.model, self.kernel_args(scene, order)
         advance = _long_samples(self.kernel, y, substeps, (model, *extra)) if substeps > CHUNK_STEPS else (
             lambda times, out, i, budget: self.kernel(y, times, out, i, substeps, budget, model, *extra))
-        solution = run_chunks(t, y, advance, settings.max_steps, progress, lambda status, times, out, i: nonfinite_message(times, i, out),
+        solution = run_chunks(t, y, advance, settings.max_steps, progress, state_failure_message,
                               explain_fault=scene.explain_fault)
         solution.rhs_evaluations = self.evaluations_per_step(scene, order) * solution.steps
         solution.details = details

@@ -31,7 +31,7 @@ import numpy as np
 from rotlab import interrupts
 from rotlab.core import faults
 from rotlab.core.dynamics import STATE_SIZE
-from rotlab.core.kernel_status import WINDOW, pace_judged, stall_needs
+from rotlab.core.kernel_status import ATTITUDE_LOST, STEP_TOO_SMALL, WINDOW, pace_judged, stall_needs, valid_rows
 from rotlab.methods.base import ProgressCallback, Solution
 
 if TYPE_CHECKING:
@@ -293,17 +293,17 @@ def evaluate_in_windows(t: np.ndarray, evaluate: Callable[[np.ndarray], np.ndarr
 
 
 def _valid_rows(out: np.ndarray, i: int) -> int:
-    """Rows [0, i) written by the kernel, cut at the first non-finite one."""
-    finite = np.all(np.isfinite(out[:i]), axis=1)
-    return int(np.argmin(finite)) if not finite.all() else i
+    """Rows [0, i) written by the kernel, cut at the first one ``state_status`` refuses."""
+    valid = valid_rows(out[:i])
+    return int(np.argmin(valid)) if not valid.all() else i
 
 
-def adaptive_failure_message(step_too_small: bool, t_now: float, times: np.ndarray, i: int, state: np.ndarray) -> str:
+def adaptive_failure_message(status: int, t_now: float, times: np.ndarray, state: np.ndarray, i: int) -> str:
     """Why an adaptive method stopped: its step fell below the floating-point resolution at
-    ``t_now``, or the state became non-finite (see ``nonfinite_message``)."""
-    if step_too_small:
+    ``t_now`` (STEP_TOO_SMALL), or the state was refused (``state_failure_message``)."""
+    if status == STEP_TOO_SMALL:
         return step_floor_message(f"at t = {t_now:.9g} s")
-    return nonfinite_message(times, i, state)
+    return state_failure_message(status, times, state, i)
 
 
 def step_floor_message(where: str) -> str:
@@ -316,15 +316,21 @@ def budget_message(max_steps: int, t_now: float) -> str:
     return f"step budget of {max_steps:,} steps exhausted at t = {t_now:.9g} s (raise solver.max_steps)"
 
 
-def nonfinite_message(t: np.ndarray, i: int, state: np.ndarray) -> str:
-    """Where and why a run blew up, naming the last valid state (row i − 1 of ``state``)."""
-    return nonfinite_after(float(t[i - 1]), float(t[min(i, t.shape[0] - 1)]), state[i - 1])
+def state_failure_message(status: int, t: np.ndarray, state: np.ndarray, i: int) -> str:
+    """Why ``state_status`` refused the state after row i − 1 of ``state`` (its last valid one)."""
+    return state_failure_after(status, float(t[i - 1]), float(t[min(i, t.shape[0] - 1)]), state[i - 1])
 
 
-def nonfinite_after(t_valid: float, t_next: float, last: np.ndarray) -> str:
-    """``nonfinite_message`` from the last valid state ``last`` (at ``t_valid``) and the next sample time."""
+def state_failure_after(status: int, t_valid: float, t_next: float, last: np.ndarray) -> str:
+    """Where and why a run stopped on a state that ``state_status`` refused (``status``), from
+    the last valid state ``last`` (at ``t_valid``) and the next sample time."""
+    between = f"between t = {t_valid:.9g} s and t = {t_next:.9g} s"
+    if status == ATTITUDE_LOST:
+        return (f"the attitude is lost {between}: |Λ| left the range where Λ/|Λ| can be computed (~1.5e-154 to ~1.3e154; "
+                f"|Λ| = {np.linalg.norm(last[0:4]):.3g} at the last valid sample, 1 at the start); this method's step does not keep |Λ| "
+                "at this rate of turn: take a smaller solver.step, or a method that keeps |Λ| (rkmk4, dmv, splitting)")
     return (
-        f"state became non-finite between t = {t_valid:.9g} s and t = {t_next:.9g} s; "
+        f"state became non-finite {between}; "
         f"last valid state: Λ = {np.array2string(last[0:4], precision=6)}, ω = {np.array2string(last[4:7], precision=6)} rad/s "
         "(step too large for this scene, or the motion itself diverges)"
     )

@@ -105,7 +105,7 @@ class Taylor:
             return status, i, int(counters[0]) - before
 
         def describe(status: int, times: np.ndarray, out: np.ndarray, i: int) -> str:
-            return adaptive_failure_message(status == kernel.STEP_TOO_SMALL, clock["t"], times, i, out)
+            return adaptive_failure_message(status, clock["t"], times, out, i)
 
         solution = run_chunks(t, y, advance, settings.max_steps, progress, describe, lambda: clock["t"], explain_fault=scene.explain_fault)
         solution.steps = int(counters[0])
