@@ -76,6 +76,36 @@ def test_each_case_of_an_ensemble_is_its_single_run_and_reports_its_observables(
     assert any(np.isfinite(block.flip_period)) or config != "sweep_flip.toml"  # the flip is measured where there is one
 
 
+@pytest.mark.parametrize("config", ["lagrange.toml", "gyrostat.toml", "sweep_flip.toml"])
+def test_the_cpus_blocked_observables_are_the_gpus_sample_by_sample_bit_for_bit(config):
+    """``observe._fold_blocks`` (the CPU: columns in blocks of 64, vectorised) folds what
+    ``_fold_samples`` (a GPU's loop, run here on the CPU) folds, bit for bit: windows of every
+    length around a block's edge, a window opening the case, a row whose ω overflows the
+    energy (inf), a row with ω exactly 0 (c = 0: no crossing on either side of it), reversals of
+    c = a·ω at every sample across the blocks' and the windows' edges."""
+    from rotlab.api import simulate
+    from rotlab.ensemble import observe as ob
+    from rotlab.ensemble.block import case_inputs, shared_inputs
+
+    scene = _scenes(config, 2.0, "dop853", {}, time={"end": 2.0, "sample_rate": 200})[0]
+    rows = np.ascontiguousarray(simulate(scene.scenario, check=False)._state[:, :8])
+    times = scene.scenario.time.sample_times()
+    rows[150, 4:7] = 1e200  # finite, its products not
+    rows[151, 4:7] = 0.0
+    rows[60:200:2, 4:7] *= -1.0  # a reversal at every sample there, across the edges of blocks and windows
+    shared, applies, forces = shared_inputs(scene)
+    k = ob.constants_of(case_inputs([scene], [None])[0], shared, applies)
+    cuts = [0, 1, 2, 63, 64, 65, 129, 150, 152, 300, rows.shape[0]]
+    blocked = samples = None
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        opening = (0.0, math.nan, math.nan, 1.0, 0.0, 0.0) + (0.0,) * len(ob.INVARIANTS)
+        blocked = ob._fold_blocks(times, rows, lo, hi, lo == 0, k, forces, opening if lo == 0 else blocked)
+        samples = ob._fold_samples(times, rows, lo, hi, lo == 0, k, forces, opening if lo == 0 else samples)
+        assert np.array_equal(np.array(blocked), np.array(samples), equal_nan=True), (lo, hi)
+    assert any(math.isinf(x) for x in blocked)  # the overflowing row reached the folds
+    assert blocked[0] >= 130  # the reversals
+
+
 FORMULA_LOADS = [{"type": "expression", "frame": "body", "constants": {"k": 2e-5},  # a damping in the body, a pulse fixed in space
                   "torque": ["-k*omega[0]", "-k*omega[1]*(1 + 0.5*sin(t))", "-k*omega[2]"]},
                  {"type": "expression", "frame": "space", "torque": ["0", "1e-5*exp(-t)", "0"]}]
