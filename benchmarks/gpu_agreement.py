@@ -6,7 +6,7 @@ from which sample.
     NUMBA_ENABLE_CUDASIM=1 python benchmarks/gpu_agreement.py --cases 3 --scale 0.02   # without a GPU
 
 Needs the whole of rotlab (its configuration reads the scenes), unlike ``bench_gpu.py``.  Each run:
-``--cases`` cases of a shipped config with ω₀ dispersed by 0.05 rad/s (seed 7), ended at its end
+``--cases`` cases of a shipped config with ω₀ dispersed by 0.05 rad/s (deg/s where the config gives it in degrees; seed 7), ended at its end
 time × ``--scale``, every case's samples kept (every sample of cases 0 and 1 compared in full).
 Columns: the fields of ``BlockResult`` that differ (none: bit for bit), the largest relative
 difference of the last valid states (``cross_check.relative_difference``), the first sample at
@@ -39,7 +39,8 @@ RUNS = [("sweep_flip.toml", 20.0, "dop853", {}, None), ("lagrange.toml", 2.0, "d
         ("general.toml", 10.0, "dop853", {}, GRAVITY_AND + ("torque_table",)),
         ("sweep_flip.toml", 20.0, "rk4", {"step": 1e-3}, None), ("sweep_flip.toml", 20.0, "dmv", {"step": 5e-3, "order": 8}, None),
         ("lagrange.toml", 2.0, "rk4", {"step": 1e-4}, None), ("general.toml", 10.0, "rk4", {"step": 1e-3}, None),
-        ("general.toml", 10.0, "rkmk4", {"step": 1e-3}, None), ("gyrostat.toml", 4.0, "rk4", {"step": 1e-2}, None)]
+        ("general.toml", 10.0, "rkmk4", {"step": 1e-3}, None), ("gyrostat.toml", 4.0, "rk4", {"step": 1e-2}, None),
+        ("detumbling.toml", 600.0, "dop853", {}, None), ("detumbling.toml", 600.0, "rk4", {"step": 0.05}, None)]  # a formula load
 FIELDS = ("status", "valid", "steps", "rejected", "evaluations", "last", "flip_period", "reversals", "max_nutation_deg")
 
 
@@ -54,7 +55,8 @@ def scenes_of(config: str, end: float, method: str, changes: dict, loads: tuple[
     scenes = []
     for _ in range(cases):
         case = copy.deepcopy(raw)
-        case["initial"]["omega"] = [float(w + 0.05 * rng.normal()) for w in raw["initial"]["omega"]]
+        key = "omega" if "omega" in raw["initial"] else "omega_deg"
+        case["initial"][key] = [float(w + 0.05 * rng.normal()) for w in raw["initial"][key]]
         scenes.append(build_scene(parse_scenario(case, source=config)))
     return scenes
 

@@ -457,3 +457,37 @@ def test_taylor_stops_cleanly_where_a_series_is_singular():
     assert traj.stats.failure.startswith("loads[0] (quadratic_drag) torque x has no finite Taylor series at t = 0 s")
     traj = rotlab.simulate(scenario, method="dop853")
     assert traj.stats.failure is None and traj.omega[-1, 0] > 0.09  # ≈ 0.1 rad/s after 1 s, less the drag
+
+
+GPU_FORMULAS = [  # every opcode, in the three frames' components; values that overflow, divide by 0, leave a domain
+    ["-k*omega[0] + sin(t)*cos(q[1])", "tan(omega[1]) - exp(L[2]/k)", "log(abs(q[0])) + sqrt(gamma[2]) - tanh(t)"],
+    ["sign(omega[2])*omega[0]**3 + omega[1]**-2", "atan2(L[0], L[1]) / (t - 1)", "min(omega[0], q[3])**0.5 - max(gamma[0], -t)"],
+    ["-(-(t))", "2", "0**-1 + log(t - 1)"],
+]
+
+
+def test_the_gpus_formula_interpreter_gives_the_compiled_functions_values_bit_for_bit():
+    """``run_program`` over ``formula_table`` (the GPU's way: a device has no CPU function to call)
+    computes every load's formulas as the generated function does, bit for bit, NaN and inf
+    included, at 200 random inputs and at t = 1 (a pole), run here on the CPU (the same
+    libm; on a GPU the library functions are libdevice's)."""
+    from rotlab.core.expressions import formula_table, run_program
+    from rotlab.scene import formulas
+
+    builder = ProgramBuilder()
+    for texts in GPU_FORMULAS:
+        builder.formulas(texts, {"k": 0.3}, 0.0, (-np.inf, np.inf))
+    ex = builder.build(np.eye(3), np.ones(3))
+    table = formula_table(ex.rows, ex.code, ex.consts)
+    compiled = formulas.compiled(builder.programs, checked=False).ctypes
+    rng = np.random.default_rng(3)
+    points = [rng.normal(0.0, 2.0, opcodes.N_INPUTS) for _ in range(200)] + [np.r_[1.0, np.zeros(opcodes.N_INPUTS - 1)]]
+    special = 0
+    for x in points:
+        for load in range(len(GPU_FORMULAS)):
+            for component in range(3):
+                expected = compiled(load, component, *x)
+                got = run_program(table, load, component, tuple(x))
+                assert np.array_equal(got, expected, equal_nan=True), (load, component, x, got, expected)
+                special += not np.isfinite(expected)
+    assert special > 100  # NaN and inf were compared, not only finite values

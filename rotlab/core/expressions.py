@@ -43,6 +43,7 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from rotlab.core import opcodes as op
+from rotlab.core.targets import gpu_overload, overload, work_vector
 
 # numba sees the opcodes as compile-time constants
 CONST, VAR, NEG, SIN, COS, TAN, EXP, LOG, SQRT, ABS, TANH, SIGN, POWI = (
@@ -69,10 +70,9 @@ EXPRESSION_SIGNATURE = _expression_signature()
 
 
 @intrinsic
-def call_formulas(typingctx, address, load, component, inputs):
+def _call_address(typingctx, address, load, component, inputs):
     """fn(load, component, *inputs) for the cfunc at ``address`` (an int64) of
-    EXPRESSION_SIGNATURE: a direct call through a C function pointer.  The kernels see an
-    integer, the same type for every scene, and no Python object."""
+    EXPRESSION_SIGNATURE: a direct call through a C function pointer."""
     sig = types.float64(types.int64, types.int64, types.int64, inputs)
 
     def codegen(context, builder, signature, args):
@@ -84,6 +84,130 @@ def call_formulas(typingctx, address, load, component, inputs):
         return builder.call(fn, [k, c] + [builder.extract_value(values, i) for i in range(op.N_INPUTS)])
 
     return sig, codegen
+
+
+def call_formulas(address, load, component, inputs):
+    """The value of the program of (``load``, ``component``) at ``inputs`` (a tuple of
+    ``N_INPUTS`` floats).  On the CPU ``address`` is the scene's compiled programs (a cfunc of
+    EXPRESSION_SIGNATURE, ``rotlab.scene.formulas``): the kernels see an integer, the same type for
+    every scene, and no Python object.  On a GPU it is the device address of the programs'
+    ``formula_table``, which ``run_program`` interprets (the GPU cannot call the CPU's function)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(call_formulas, inline="always")
+def _call_formulas_cpu(address, load, component, inputs):
+    return lambda address, load, component, inputs: _call_address(address, load, component, inputs)
+
+
+@gpu_overload(call_formulas, inline="always")
+def _call_formulas_gpu(address, load, component, inputs):
+    from numba.cuda.extending import intrinsic as cuda_intrinsic
+
+    @cuda_intrinsic
+    def doubles_at(typingctx, address):  # the table: float64s from a device address
+        from numba.cuda import types as cuda_types
+
+        def codegen(context, builder, signature, args):
+            return builder.inttoptr(args[0], ir.DoubleType().as_pointer())
+
+        return cuda_types.CPointer(cuda_types.float64)(cuda_types.int64), codegen
+
+    return lambda address, load, component, inputs: run_program(doubles_at(address), load, component, inputs)
+
+
+COMPONENTS = 3  # programs a load's row of the table indexes (a load's three components; a drive's one)
+STACK = 40  # values on ``run_program``'s stack: above the deepest program the parser lets through
+TABLE_OPS = 2  # the table's entries for one instruction: opcode, value
+
+
+def formula_table(rows: np.ndarray, code: np.ndarray, consts: np.ndarray) -> np.ndarray:
+    """The programs of ``rows`` (expression rows, every load of the scene in the order of the
+    generated function's load index: ``rotlab.scene.loads.ProgramBuilder``) as one float64 array
+    for ``run_program``: for load k and component c, table[2 (COMPONENTS k + c)] its first entry
+    and table[2 (COMPONENTS k + c) + 1] its instruction count; then each instruction as (opcode,
+    value): a CONST's constant itself, another's integer argument (an exact float)."""
+    from rotlab.core.torques import EX_PROGRAMS  # (torques imports this module)
+
+    index = np.zeros(2 * COMPONENTS * rows.shape[0])
+    ops: list[float] = []
+    for k in range(rows.shape[0]):
+        for c in range(COMPONENTS):
+            first, end = int(rows[k, EX_PROGRAMS + 2 * c]), int(rows[k, EX_PROGRAMS + 2 * c + 1])
+            index[2 * (COMPONENTS * k + c)] = index.shape[0] + len(ops)
+            index[2 * (COMPONENTS * k + c) + 1] = end - first
+            for opcode, arg, _ in code[first:end]:
+                ops += [float(opcode), float(consts[arg]) if opcode == CONST else float(arg)]
+    return np.concatenate([index, np.array(ops, dtype=np.float64)])
+
+
+@njit(cache=True)
+def run_program(table, load, component, inputs):
+    """The value of a program of ``formula_table`` (``table``: anything indexed by position, an
+    array or a device pointer) at ``inputs``: the operations of the generated function
+    (``rotlab.scene.formulas.source_of``), the same helpers, in the same order."""
+    at = 2 * (COMPONENTS * load + component)
+    first, count = int(table[at]), int(table[at + 1])
+    stack = work_vector(STACK)
+    top = -1
+    for i in range(first, first + TABLE_OPS * count, TABLE_OPS):
+        opcode, value = int(table[i]), table[i + 1]
+        if opcode == CONST:
+            top += 1
+            stack[top] = value
+        elif opcode == VAR:
+            top += 1
+            stack[top] = inputs[int(value)]
+        elif opcode < FIRST_BINARY:
+            stack[top] = _unary(opcode, int(value), stack[top])
+        else:
+            top -= 1
+            stack[top] = _binary(opcode, stack[top], stack[top + 1])
+    return stack[0]
+
+
+@njit(cache=True, inline="always")
+def _unary(opcode, n, a):
+    if opcode == NEG:
+        return -a
+    if opcode == SIN:
+        return math.sin(a)
+    if opcode == COS:
+        return math.cos(a)
+    if opcode == TAN:
+        return math.tan(a)
+    if opcode == EXP:
+        return math.exp(a)
+    if opcode == LOG:
+        return safe_log(a)
+    if opcode == SQRT:
+        return safe_sqrt(a)
+    if opcode == ABS:
+        return abs(a)
+    if opcode == TANH:
+        return math.tanh(a)
+    if opcode == SIGN:
+        return sign(a)
+    return powi(a, n)  # POWI
+
+
+@njit(cache=True, inline="always")
+def _binary(opcode, a, b):
+    if opcode == ADD:
+        return a + b
+    if opcode == SUB:
+        return a - b
+    if opcode == MUL:
+        return a * b
+    if opcode == DIV:
+        return safe_div(a, b)
+    if opcode == POW:
+        return safe_pow(a, b)
+    if opcode == ATAN2:
+        return math.atan2(a, b)
+    if opcode == MIN:
+        return min(a, b)
+    return max(a, b)  # MAX
 
 
 @njit(cache=True)

@@ -208,10 +208,9 @@ def unsupported_on_gpu(method: object) -> str | None:
 
 
 def unsupported_scene_on_gpu(scene: Scene) -> str | None:
-    """Why ``scene`` cannot run on the GPU, beyond ``unsupported_scene`` (None when it can): the
-    formulas of loads and events are compiled for the CPU (a C function the GPU cannot call)."""
-    if scene.loads.expressions is not None:
-        return "a formula load (expression) is compiled for the CPU: run this sweep on the CPU (its ensemble kernels take it)"
+    """Why ``scene`` cannot run on the GPU, beyond ``unsupported_scene`` (None when it can):
+    events' formulas are compiled for the CPU (a C function the GPU cannot call; formula loads
+    are interpreted there instead, ``rotlab.core.expressions.run_program``)."""
     if scene.scenario.events:
         return "events' formulas are compiled for the CPU: run this sweep on the CPU (its ensemble kernels take them)"
     return None

@@ -36,8 +36,10 @@ from numba import config, cuda, types
 
 from rotlab.core import targets
 from rotlab.core.dynamics import STATE_SIZE, store_row
+from rotlab.core.expressions import STACK, formula_table
 from rotlab.core.kernel_status import OK
-from rotlab.errors import first_line
+from rotlab.core.model import Model
+from rotlab.errors import RunFailure, first_line
 from rotlab.ensemble.kernels import dop853_case, keep_samples, report_fixed_step, report_whole
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 
@@ -243,12 +245,27 @@ def _to_device(arrays: dict[str, np.ndarray]) -> dict[str, object]:
 
 
 def _tuple_to_device(values: tuple) -> tuple:
-    """A tuple (a ``Model``, a method's extra arguments) with its arrays in device memory (the
-    simulator's kernels take the NumPy arrays themselves)."""
+    """A tuple (a ``Model``, a method's extra arguments) with its arrays in device memory, nested
+    tuples included (the simulator's kernels take the NumPy arrays themselves)."""
     if config.ENABLE_CUDASIM:
         return values
-    moved = (_device_array(v) if isinstance(v, np.ndarray) else v for v in values)
+    moved = (_device_array(v) if isinstance(v, np.ndarray) else (_tuple_to_device(v) if isinstance(v, tuple) else v) for v in values)
     return type(values)(*moved) if hasattr(values, "_fields") else tuple(moved)
+
+
+def _model_to_device(model: Model) -> tuple[Model, object]:
+    """``model`` in device memory (``_tuple_to_device``) and, where it has formula loads, its
+    programs' ``formula_table`` with it: ``expressions.fn``, the CPU function's address, becomes
+    the table's device address, which the GPU's ``call_formulas`` interprets.  The table is
+    returned too: it must outlive the kernel calls (the model holds only its address)."""
+    ex = model.expressions
+    if config.ENABLE_CUDASIM or ex is None:
+        return _tuple_to_device(model), None
+    if ex.depth > STACK:
+        raise RunFailure(f"a formula needs a stack of {ex.depth} values, beyond the GPU interpreter's {STACK}: run this sweep on the CPU")
+    table = cuda.to_device(formula_table(ex.rows, ex.code, ex.consts))
+    expressions = ex._replace(fn=int(table.device_ctypes_pointer.value))
+    return _tuple_to_device(model._replace(expressions=expressions)), table
 
 
 def _copy_back(device: dict[str, object], host: dict[str, np.ndarray]) -> None:
@@ -266,12 +283,14 @@ def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, c
     outputs = {"status": status, "valid": valid, "steps": steps, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
                "kept_count": kept_count}
     out = _to_device(outputs)
+    device_model, table = _model_to_device(model)
     with _compiling():
         _fixed_step_kernel(advance)[blocks(y0.shape[0]), THREADS](
-            inputs["y0"], inputs["times"], inputs["substeps"], max_steps, _tuple_to_device(model), _tuple_to_device(extra),
+            inputs["y0"], inputs["times"], inputs["substeps"], max_steps, device_model, _tuple_to_device(extra),
             inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["steps"],
             out["last"], out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     _copy_back(out, outputs)
+    del table  # (after the copy, which waits for the kernel)
 
 
 def cases_per_batch(cases: int, samples: int) -> int:
@@ -289,7 +308,7 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, cl
     outputs = {"counters": counters, "clocks": clocks, "status": status, "valid": valid, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
                "kept_count": kept_count}
     out = _to_device(outputs)
-    device_model = _tuple_to_device(model)
+    device_model, table = _model_to_device(model)
     b, n = y0.shape[0], times.shape[0]
     batch = cases_per_batch(b, n)
     grid = cuda.device_array((batch, n, STATE_SIZE))
@@ -301,3 +320,4 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, cl
                 out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     del grid
     _copy_back(out, outputs)
+    del table  # (after the copy, which waits for the kernels)
