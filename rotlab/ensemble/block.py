@@ -44,19 +44,19 @@ def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndar
 
         dop853_ensemble(*head, scene.model, counters, clocks, *inputs, *outputs)
     else:
-        from rotlab.ensemble.kernels import dop853_ensemble, parallel_model
+        from rotlab.ensemble.kernels import dop853_ensemble, parallel_model, thread_grids
 
-        dop853_ensemble(*head, *parallel_model(scene.model), counters, clocks, *inputs, *events, *outputs)
+        dop853_ensemble(*head, *parallel_model(scene.model), thread_grids(t.shape[0]), counters, clocks, *inputs, *events, *outputs)
     return {"rtol": settings.rtol, "atol": settings.atol}
 
 
 def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndarray, counters: np.ndarray, clocks: np.ndarray,
             inputs: tuple, events: tuple, outputs: tuple, device: str = "cpu") -> dict:
-    from rotlab.ensemble.kernels import parallel_model, taylor_ensemble
+    from rotlab.ensemble.kernels import parallel_model, taylor_ensemble, thread_grids
 
     order = method.checked_order(settings)
     taylor_ensemble(y0, t, order, settings.rtol, settings.atol, settings.max_steps, CHUNK_STEPS, *parallel_model(scene.model),
-                    *method.constants(scene), counters, clocks, *inputs, *events, *outputs)
+                    thread_grids(t.shape[0]), *method.constants(scene), counters, clocks, *inputs, *events, *outputs)
     return {"order": order, "rtol": settings.rtol, "atol": settings.atol}
 
 
@@ -296,7 +296,8 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
         else:
             with parallel_chunksize(1):
                 kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, *kernels.parallel_model(scene.model),
-                                                method.kernel_args(scene, order), *inputs, events, found, fault, *outputs)
+                                                kernels.thread_grids(min(n, kernels.WINDOW + 1)), method.kernel_args(scene, order), *inputs, events,
+                                                found, fault, *outputs)
         rejected = np.zeros(b, dtype=np.int64)
         evaluations = steps * method.evaluations_per_step(scene, order)
         clocks[:, 0] = t[np.maximum(valid, 1) - 1]  # (a fixed step's run ends at a sample)

@@ -18,7 +18,7 @@ a case holds its N rows while it runs.
 from __future__ import annotations
 
 import numpy as np
-from numba import literally, njit, prange, types
+from numba import get_num_threads, get_thread_id, literally, njit, prange, types
 from numba.extending import overload
 
 from rotlab.core.dop853 import dop853_advance
@@ -116,14 +116,15 @@ def _keep_last(row, t, kept, kept_t, count):
 
 
 @njit(cache=True, parallel=True)
-def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, expressions, extra, case, shared, applies, forces, events, found, fault,
-                        status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count):
+def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, expressions, grids, extra, case, shared, applies, forces, events, found,
+                        fault, status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count):
     """Every case b from ``y0[b]`` with ``substeps[b]`` steps per sample interval of the fixed-step
     method named ``method``: ``status[b]``,
     ``valid[b]`` (samples made), ``steps[b]``, ``acc[b]`` (observables), ``found[b]`` and
     ``fault[b]`` (its ``events``, None without: ``event_scan``); case b's samples go to
     ``kept[keep[b]]`` (``kept_count[b]`` rows) when ``keep[b] ≥ 0``; ``last[b]``: its last valid
-    state.  A case with ``substeps[b] ≤ 0`` is not run (its outputs are left as they are)."""
+    state; ``grids``: ``thread_grids(min(n, WINDOW + 1))``.  A case with ``substeps[b] ≤ 0`` is
+    not run (its outputs are left as they are)."""
     n = times.shape[0]
     for b in prange(y0.shape[0]):
         if substeps[b] <= 0:
@@ -131,7 +132,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, expressio
         y = y0[b].copy()
         mine = own_model(model, expressions)
         folded = np.empty(acc.shape[1])  # this case's own (a row of ``acc`` shares cache lines with its neighbours')
-        rows = np.empty((min(n, WINDOW + 1), STATE_SIZE))
+        rows = grids[get_thread_id()]
         store_row(rows, 0, y)
         solver, watch = (substeps[b], extra), event_scratch(events, STATE_SIZE)
         opened = open_events(events, times, rows, fault[b], watch)
@@ -173,14 +174,22 @@ def report_fixed_step(b, code, i, taken, y, times, folded, count, status, valid,
     kept_count[b] = count[0]
 
 
+def thread_grids(rows: int) -> np.ndarray:
+    """A grid of ``rows`` rows for each thread of the parallel loops below (``grids[get_thread_id()]``:
+    the grid of the thread's case; allocated here: a compiled function that asks for the number of
+    threads cannot be cached).  A grid allocated and freed case by case had glibc hand its pages
+    back to the system and two threads fault them in again, contending in the kernel: on the free
+    body's 0.3 ms cases the 2-thread speed-up went from 1.4 to 1.95 between identical calls."""
+    return np.empty((get_num_threads(), rows, STATE_SIZE))
+
+
 @njit(cache=True)
-def _start_whole(y0, b, n, model, expressions, counts):
-    """Case b's state, its grid of ``n`` rows (row 0 its first sample), its own copy of the model,
-    its own ``counts`` counters, the scratch of ``report_whole`` and its clock (``dop853_case``)
-    (none shares a cache line or a reference count with another case's: a row of ``acc`` shares
-    cache lines with its neighbours')."""
+def _start_whole(y0, b, rows, model, expressions, counts):
+    """Case b's state, ``rows`` (its thread's grid) with its first sample in row 0, its own copy
+    of the model, its own ``counts`` counters, the scratch of ``report_whole`` and its clock
+    (``dop853_case``) (none shares a cache line or a reference count with another case's: a row
+    of ``acc`` shares cache lines with its neighbours')."""
     y = y0[b].copy()
-    rows = np.empty((n, STATE_SIZE))
     store_row(rows, 0, y)
     return (y, rows, own_model(model, expressions), np.zeros(counts, dtype=np.int64), np.empty(ACC_COLUMNS), np.zeros(1, dtype=np.int64),
             np.zeros(3))
@@ -256,12 +265,12 @@ def scan_whole(method, solver, model, events, times, rows, i, code, found, fault
 
 
 @njit(cache=True, parallel=True)
-def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions, counters, clocks, case, shared, applies, forces, events, found, fault,
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions, grids, counters, clocks, case, shared, applies, forces, events, found, fault,
                     status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations;
-    ``clocks[b]``: ``dop853_case``'s clock)."""
+    ``clocks[b]``: ``dop853_case``'s clock; ``grids``: ``thread_grids(n)``, a case's whole grid)."""
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, times.shape[0], model, expressions, 3)
+        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, 3)
         solver, watch = (rtol, atol, max_steps), event_scratch(events, STATE_SIZE)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
@@ -292,12 +301,13 @@ def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, 
 
 
 @njit(cache=True, parallel=True)
-def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expressions, c0, T, lever_force, flags, counters, clocks, case,
+def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expressions, grids, c0, T, lever_force, flags, counters, clocks, case,
                     shared, applies, forces, events, found, fault, status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
     """``fixed_step_ensemble`` for ``taylor`` at ``order`` (its ``kernel_constants`` c0, T,
-    lever_force, flags; ``counters[b, 0]``: steps; ``clocks[b]``: ``taylor_case``'s clock)."""
+    lever_force, flags; ``counters[b, 0]``: steps; ``clocks[b]``: ``taylor_case``'s clock;
+    ``grids``: ``thread_grids(n)``)."""
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, times.shape[0], model, expressions, 1)
+        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, 1)
         solver, watch = (order, rtol, atol, max_steps, c0, T, lever_force, flags), event_scratch(events, STATE_SIZE)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (as ``dop853_ensemble``)
