@@ -1,7 +1,8 @@
 """What the kernels share: their status codes, the one rule a state must meet to be stored
 (``state_status``: every component finite and |Λ|² a normal double, so that Λ/|Λ| is an
-attitude), the end of a sample interval (``end_sample``: the state stored, or why not) and ``WINDOW``, the samples per kernel call of a run (an adaptive
-method's steps stop at each window's end, so every caller that must reproduce a run uses it).
+attitude), the end of a sample interval (``end_sample``: the state stored, or why not) and
+``WINDOW``, the samples per kernel call of a run (an adaptive method's steps stop at each
+window's end, so every caller that must reproduce a run uses it).
 
 Each kernel keeps its own time loop.  A loop written once around a per-method step (a scheme
 class whose step numba inlines, ``rk4`` and ``rkmk4`` sharing it) gave the same steps, bit for
