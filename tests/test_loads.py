@@ -471,7 +471,8 @@ def test_the_gpus_formula_interpreter_gives_the_compiled_functions_values_bit_fo
     computes every load's formulas as the generated function does, bit for bit, NaN and inf
     included, at 200 random inputs and at t = 1 (a pole), run here on the CPU (the same
     libm; on a GPU the library functions are libdevice's)."""
-    from rotlab.core.expressions import formula_table, run_program
+    from rotlab.core.expressions import run_program
+    from rotlab.core.formula_table import formula_table
     from rotlab.scene import formulas
 
     builder = ProgramBuilder()

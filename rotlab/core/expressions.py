@@ -91,7 +91,8 @@ def call_formulas(address, load, component, inputs):
     ``N_INPUTS`` floats).  On the CPU ``address`` is the scene's compiled programs (a cfunc of
     EXPRESSION_SIGNATURE, ``rotlab.scene.formulas``): the kernels see an integer, the same type for
     every scene, and no Python object.  On a GPU it is the device address of the programs'
-    ``formula_table``, which ``run_program`` interprets (the GPU cannot call the CPU's function)."""
+    ``rotlab.core.formula_table``, which ``run_program`` interprets (the GPU cannot call the CPU's
+    function)."""
     raise NotImplementedError("compiled code only")
 
 
@@ -116,35 +117,16 @@ def _call_formulas_gpu(address, load, component, inputs):
     return lambda address, load, component, inputs: run_program(doubles_at(address), load, component, inputs)
 
 
+# ``rotlab.core.formula_table``'s layout, which ``run_program`` reads
 COMPONENTS = 3  # programs a load's row of the table indexes (a load's three components; a drive's one)
 STACK = 40  # values on ``run_program``'s stack: above the deepest program the parser lets through
 TABLE_OPS = 2  # the table's entries for one instruction: opcode, value
 
 
-def formula_table(rows: np.ndarray, code: np.ndarray, consts: np.ndarray) -> np.ndarray:
-    """The programs of ``rows`` (expression rows, every load of the scene in the order of the
-    generated function's load index: ``rotlab.scene.loads.ProgramBuilder``) as one float64 array
-    for ``run_program``: for load k and component c, table[2 (COMPONENTS k + c)] its first entry
-    and table[2 (COMPONENTS k + c) + 1] its instruction count; then each instruction as (opcode,
-    value): a CONST's constant itself, another's integer argument (an exact float)."""
-    from rotlab.core.torques import EX_PROGRAMS  # (torques imports this module)
-
-    index = np.zeros(2 * COMPONENTS * rows.shape[0])
-    ops: list[float] = []
-    for k in range(rows.shape[0]):
-        for c in range(COMPONENTS):
-            first, end = int(rows[k, EX_PROGRAMS + 2 * c]), int(rows[k, EX_PROGRAMS + 2 * c + 1])
-            index[2 * (COMPONENTS * k + c)] = index.shape[0] + len(ops)
-            index[2 * (COMPONENTS * k + c) + 1] = end - first
-            for opcode, arg, _ in code[first:end]:
-                ops += [float(opcode), float(consts[arg]) if opcode == CONST else float(arg)]
-    return np.concatenate([index, np.array(ops, dtype=np.float64)])
-
-
 @njit(cache=True)
 def run_program(table, load, component, inputs):
-    """The value of a program of ``formula_table`` (``table``: anything indexed by position, an
-    array or a device pointer) at ``inputs``: the operations of the generated function
+    """The value of a program of ``rotlab.core.formula_table`` (``table``: anything indexed by
+    position, an array or a device pointer) at ``inputs``: the operations of the generated function
     (``rotlab.scene.formulas.source_of``), the same helpers, in the same order."""
     at = 2 * (COMPONENTS * load + component)
     first, count = int(table[at]), int(table[at + 1])

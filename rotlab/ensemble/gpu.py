@@ -36,7 +36,8 @@ from numba import config, cuda, types
 
 from rotlab.core import targets
 from rotlab.core.dynamics import STATE_SIZE, store_row
-from rotlab.core.expressions import STACK, formula_table
+from rotlab.core.expressions import STACK
+from rotlab.core.formula_table import formula_table
 from rotlab.core.kernel_status import OK
 from rotlab.core.model import Model
 from rotlab.errors import RunFailure, first_line
