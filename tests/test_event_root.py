@@ -52,6 +52,26 @@ def test_the_root_is_scipys_brentq_to_the_last_bit():
         compared += 1
 
 
+@pytest.mark.parametrize("scale", [1e-120, 1e-150, 1e-300])
+def test_values_so_small_that_brents_products_underflow_give_scipys_root(scale):
+    """g = scale·(four families): the inverse quadratic step's denominator underflows to 0.  SciPy's
+    C divides to inf and bisects; the compiled loop raised ZeroDivisionError (a traceback from an
+    event of ``1e-120*omega[1]``, and a sweep that wrote nothing).  Now SciPy's τ, bit for bit."""
+    rng = np.random.default_rng(2)
+    compared = 0
+    while compared < 200:
+        a, b = rng.normal(size=2)
+        kind, r, span = compared % 4, rng.uniform(0.01, 0.99), 10.0 ** rng.uniform(-3, 1)
+        unscaled = _family(kind, a, b, r, span)
+        g = lambda x, unscaled=unscaled: scale * unscaled(x)  # noqa: E731
+        g0, g1 = g(0.0), g(span)
+        if g0 == 0.0 or g1 == 0.0 or (g0 > 0) == (g1 > 0):
+            continue
+        verdict, tau, _ = locate(g, g0, span, 1e-12)
+        assert verdict == root.ROOT and tau == brentq(g, 0.0, span, xtol=1e-12, rtol=root.RTOL)
+        compared += 1
+
+
 def test_a_sign_change_through_a_pole_is_not_a_root():
     g = lambda x: 1.0 / (x - 0.3)  # noqa: E731  (−1/0.3 at 0, +1/0.7 at 1, through ±∞ at 0.3)
     verdict, tau, _ = locate(g, g(0.0), 1.0, 1e-14)

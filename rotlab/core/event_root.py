@@ -82,7 +82,7 @@ def locate_next(s, value):
     return ROOT, s[_XCUR]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")  # (IEEE division, as SciPy's C: a product of tiny values that underflows to 0 gives inf, and bisection)
 def _brent_iterate(s):
     """One pass of Brent's loop from f(xcur) = fcur: (PENDING, the next iterate), or (PENDING,
     the root) with the phase set to check g there."""
