@@ -123,8 +123,9 @@ def divergence(scenario: Scenario | str | Path, *, duration: float | None = None
     rate = (base.time.sample_count - 1) / (end - start)
 
     def run(t0: float, q: np.ndarray, w: np.ndarray):
-        """The scenario from state (Λ, ω) (user's frames) at t0, over ``interval`` at the base's sample rate."""
-        raw["initial"] = {"quaternion": q.tolist(), "omega": w.tolist()}
+        """The scenario from the attitude Λ/|Λ| and ω (user's frames) at t0, over ``interval`` at the
+        base's sample rate (a method that does not keep |Λ|, rk4, ends an interval off the unit sphere)."""
+        raw["initial"] = {"quaternion": (q / np.linalg.norm(q)).tolist(), "omega": w.tolist()}
         raw["time"] = {"start": t0, "end": min(t0 + interval, end), "sample_rate": rate}
         return rotlab.simulate(parse_scenario(raw, source="divergence"))
 

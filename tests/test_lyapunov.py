@@ -6,6 +6,8 @@ distance apart (``divergence``)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -61,3 +63,14 @@ def test_the_api_functions_stay_functions_after_their_modules_are_imported():
             "assert callable(rotlab.stability) and callable(rotlab.lyapunov), (rotlab.stability, rotlab.lyapunov)\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
+
+
+def test_the_cross_check_restarts_from_the_attitude_when_the_method_does_not_keep_its_norm(write):
+    """rk4 at h·|ω| = 2 shrinks |Λ| to 0.05 in one 5 s interval; the cross-check restarted the
+    next interval from that Λ, which the scenario refuses ("|Λ| = 0.047 is not 1", exit 2 after
+    the exponent was printed).  It now restarts from Λ/|Λ| and gives a number."""
+    path = write("drift.toml", "[body]\nprincipal_moments = [0.010, 0.016, 0.022]\n[initial]\nomega = [0.1, 0.0, 200.0]\n"
+                               "[time]\nend = 12.0\nsample_rate = 10\n[solver]\nmethod = \"rk4\"\nstep = 0.01\n")
+    first = rotlab.simulate(path, duration=5.0)
+    assert np.linalg.norm(first.quaternion[-1]) < 0.1  # (the raw Λ: its norm is not kept)
+    assert math.isfinite(divergence(path))
