@@ -492,3 +492,29 @@ def test_the_gpus_formula_interpreter_gives_the_compiled_functions_values_bit_fo
                 assert np.array_equal(got, expected, equal_nan=True), (load, component, x, got, expected)
                 special += not np.isfinite(expected)
     assert special > 100  # NaN and inf were compared, not only finite values
+
+
+def test_the_formula_table_of_a_gyrostat_holds_its_drives_after_its_loads():
+    """Driven rotors' formulas (pd_control) are the programs' loads after the formula loads'
+    (``Drives.offset``): the table of both row sets, in that order, interprets each as the scene's
+    compiled function does, bit for bit (``gpu._model_to_device`` builds it so)."""
+    import ctypes
+
+    from rotlab.config.loader import read_toml
+    from rotlab.core.expressions import run_program
+    from rotlab.core.formula_table import formula_table
+    from tests.conftest import CONFIGS
+
+    raw = read_toml(CONFIGS / "wheel_slew.toml")
+    raw["loads"] = [{"type": "expression", "frame": "space", "torque": ["1e-4*sin(t)", "-2e-4*omega[2]", "L[0]*q[1]"]}]
+    model = build_scene(parse_scenario(raw, source="wheel_slew.toml")).model
+    ex, drives = model.expressions, model.drives
+    assert ex is not None and drives is not None and drives.offset == ex.rows.shape[0] == 1
+    table = formula_table(np.concatenate([ex.rows, drives.ex.rows]), ex.code, ex.consts)
+    compiled = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * opcodes.N_INPUTS)(ex.fn)
+    rng = np.random.default_rng(5)
+    programs = [(0, c) for c in range(3)] + [(drives.offset + j, 0) for j in range(drives.axes.shape[0])]
+    for _ in range(100):
+        x = rng.normal(0.0, 1.0, opcodes.N_INPUTS)
+        for load, component in programs:
+            assert np.array_equal(run_program(table, load, component, tuple(x)), compiled(load, component, *x), equal_nan=True)

@@ -255,18 +255,23 @@ def _tuple_to_device(values: tuple) -> tuple:
 
 
 def _model_to_device(model: Model) -> tuple[Model, object]:
-    """``model`` in device memory (``_tuple_to_device``) and, where it has formula loads, its
-    programs' ``formula_table`` with it: ``expressions.fn``, the CPU function's address, becomes
-    the table's device address, which the GPU's ``call_formulas`` interprets.  The table is
+    """``model`` in device memory (``_tuple_to_device``) and, where it has formulas (loads', or
+    driven rotors'), its programs' ``formula_table`` with it: ``fn``, the CPU function's address,
+    becomes the table's device address, which the GPU's ``call_formulas`` interprets.  The table is
     returned too: it must outlive the kernel calls (the model holds only its address)."""
-    ex = model.expressions
-    if config.ENABLE_CUDASIM or ex is None:
+    drives = model.drives.ex if model.drives is not None else None
+    programs = [ex for ex in (model.expressions, drives) if ex is not None]  # (in the programs' load order: ``Drives.offset``)
+    if config.ENABLE_CUDASIM or not programs:
         return _tuple_to_device(model), None
-    if ex.depth > STACK:
-        raise RunFailure(f"a formula needs a stack of {ex.depth} values, beyond the GPU interpreter's {STACK}: run this sweep on the CPU")
-    table = cuda.to_device(formula_table(ex.rows, ex.code, ex.consts))
-    expressions = ex._replace(fn=int(table.device_ctypes_pointer.value))
-    return _tuple_to_device(model._replace(expressions=expressions)), table
+    depth = max(ex.depth for ex in programs)
+    if depth > STACK:
+        raise RunFailure(f"a formula needs a stack of {depth} values, beyond the GPU interpreter's {STACK}: run this sweep on the CPU")
+    table = cuda.to_device(formula_table(np.concatenate([ex.rows for ex in programs]), programs[0].code, programs[0].consts))
+    address = int(table.device_ctypes_pointer.value)
+    expressions = None if model.expressions is None else model.expressions._replace(fn=address)
+    driven = None if model.drives is None else model.drives._replace(ex=drives._replace(fn=address))
+    on_device = model._replace(expressions=expressions, drives=driven)
+    return _tuple_to_device(on_device), table
 
 
 def _copy_back(device: dict[str, object], host: dict[str, np.ndarray]) -> None:
