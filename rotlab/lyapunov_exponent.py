@@ -72,8 +72,9 @@ def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, 
     """The maximal Lyapunov exponent of ``scenario`` (object or file) over ``duration`` (s, else
     its own span), renormalised at every sample (module docstring)."""
     from rotlab.api import _plan, scenario_of
-    from rotlab.core.kernel_status import valid_rows
+    from rotlab.core.kernel_status import ATTITUDE_LOST, NONFINITE, valid_rows
     from rotlab.methods.registry import get_method
+    from rotlab.methods.stepping import state_failure_after
     from rotlab.scene.scene import build_scene
 
     scene = build_scene(scenario_of(scenario, duration=duration, overrides=overrides))
@@ -92,9 +93,10 @@ def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, 
     for k in range(t.shape[0] - 1):
         t0, t1 = float(t[k]), float(t[k + 1])
         after, neighbour = flow(x, t0, t1), flow(x + DELTA * v, t0, t1)
-        if not valid_rows(np.stack([after, neighbour])).all():
-            raise RunFailure(f"the state is not finite, or its attitude is lost (|Λ| out of range), at t = {t1:.9g} s: "
-                             "no exponent (a smaller solver.step or rtol?)")
+        states = np.stack([after, neighbour])
+        if not valid_rows(states).all():  # (the run's own words: ``kernel_status.state_status``)
+            status = NONFINITE if not np.isfinite(states).all() else ATTITUDE_LOST
+            raise RunFailure(f"{state_failure_after(status, t0, t1, x)}: no exponent")
         w = _tangent((neighbour - after) / DELTA, after)
         size = _norm(w, scale)
         growth[k] = math.log(size)

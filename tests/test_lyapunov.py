@@ -74,3 +74,14 @@ def test_the_cross_check_restarts_from_the_attitude_when_the_method_does_not_kee
     first = rotlab.simulate(path, duration=5.0)
     assert np.linalg.norm(first.quaternion[-1]) < 0.1  # (the raw Λ: its norm is not kept)
     assert math.isfinite(divergence(path))
+
+
+def test_a_lost_attitude_stops_the_exponent_in_the_runs_words(write):
+    """rk4 shrinks |Λ| below ~1.5e-154 at t ≈ 579 s: no exponent, with the words a run stops with
+    (before: a number, computed from states without an attitude)."""
+    from rotlab.errors import RunFailure
+
+    path = write("lost.toml", "[body]\nprincipal_moments = [0.010, 0.016, 0.022]\n[initial]\nomega = [0.0, 0.0, 200.0]\n"
+                              "[time]\nend = 700.0\nsample_rate = 10\n[solver]\nmethod = \"rk4\"\nstep = 0.01\n")
+    with pytest.raises(RunFailure, match=r"^the attitude is lost between t = 579\.3 s and t = 579\.4 s: .*: no exponent$"):
+        lyapunov(path)
