@@ -72,7 +72,7 @@ def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, 
     """The maximal Lyapunov exponent of ``scenario`` (object or file) over ``duration`` (s, else
     its own span), renormalised at every sample (module docstring)."""
     from rotlab.api import _plan, scenario_of
-    from rotlab.core.kernel_status import ATTITUDE_LOST, NONFINITE, valid_rows
+    from rotlab.core.kernel_status import OK, state_status
     from rotlab.methods.registry import get_method
     from rotlab.methods.stepping import state_failure_after
     from rotlab.scene.scene import build_scene
@@ -93,9 +93,8 @@ def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, 
     for k in range(t.shape[0] - 1):
         t0, t1 = float(t[k]), float(t[k + 1])
         after, neighbour = flow(x, t0, t1), flow(x + DELTA * v, t0, t1)
-        states = np.stack([after, neighbour])
-        if not valid_rows(states).all():  # (the run's own words: ``kernel_status.state_status``)
-            status = NONFINITE if not np.isfinite(states).all() else ATTITUDE_LOST
+        status = next((s for s in (state_status(after), state_status(neighbour)) if s != OK), OK)  # (a run's rule, and its words)
+        if status != OK:
             raise RunFailure(f"{state_failure_after(status, t0, t1, x)}: no exponent")
         w = _tangent((neighbour - after) / DELTA, after)
         size = _norm(w, scale)

@@ -34,22 +34,29 @@ def _family(kind: int, a: float, b: float, r: float, span: float):
             lambda x: math.tanh(20.0 * (x / span - r)) + 1e-3 * b][kind]
 
 
+def _bracketed(rng, count: int, lowest_span: float, scale: float = 1.0):
+    """``count`` functions of the four families, times ``scale``, that change sign over their span
+    (10^lowest_span … 10): (g, g(0), span) each."""
+    found = 0
+    while found < count:
+        a, b = rng.normal(size=2)
+        kind, r, span = found % 4, rng.uniform(0.01, 0.99), 10.0 ** rng.uniform(lowest_span, 1)
+        g = lambda x, f=_family(kind, a, b, r, span): scale * f(x)  # noqa: E731
+        g0, g1 = g(0.0), g(span)
+        if g0 == 0.0 or g1 == 0.0 or (g0 > 0) == (g1 > 0):
+            continue
+        yield g, g0, span
+        found += 1
+
+
 def test_the_root_is_scipys_brentq_to_the_last_bit():
     """2,000 bracketed roots of four families (polynomial, trigonometric, exponential, a steep
     tanh), spans 1e-6 … 10, tolerances 1e-14 … 1e-11: the same τ, bit for bit."""
     rng = np.random.default_rng(1)
-    compared = 0
-    while compared < 2000:
-        a, b = rng.normal(size=2)
-        kind, r, span = compared % 4, rng.uniform(0.01, 0.99), 10.0 ** rng.uniform(-6, 1)
-        g = _family(kind, a, b, r, span)
-        g0, g1 = g(0.0), g(span)
-        if g0 == 0.0 or g1 == 0.0 or (g0 > 0) == (g1 > 0):
-            continue
+    for g, g0, span in _bracketed(rng, 2000, -6):
         xtol = 1e-14 * 10.0 ** rng.uniform(0, 3)
         verdict, tau, _ = locate(g, g0, span, xtol)
         assert verdict == root.ROOT and tau == brentq(g, 0.0, span, xtol=xtol, rtol=root.RTOL)
-        compared += 1
 
 
 @pytest.mark.parametrize("scale", [1e-120, 1e-150, 1e-300])
@@ -57,19 +64,9 @@ def test_values_so_small_that_brents_products_underflow_give_scipys_root(scale):
     """g = scale·(four families): the inverse quadratic step's denominator underflows to 0.  SciPy's
     C divides to inf and bisects; the compiled loop raised ZeroDivisionError (a traceback from an
     event of ``1e-120*omega[1]``, and a sweep that wrote nothing).  Now SciPy's τ, bit for bit."""
-    rng = np.random.default_rng(2)
-    compared = 0
-    while compared < 200:
-        a, b = rng.normal(size=2)
-        kind, r, span = compared % 4, rng.uniform(0.01, 0.99), 10.0 ** rng.uniform(-3, 1)
-        unscaled = _family(kind, a, b, r, span)
-        g = lambda x, unscaled=unscaled: scale * unscaled(x)  # noqa: E731
-        g0, g1 = g(0.0), g(span)
-        if g0 == 0.0 or g1 == 0.0 or (g0 > 0) == (g1 > 0):
-            continue
+    for g, g0, span in _bracketed(np.random.default_rng(2), 200, -3, scale):
         verdict, tau, _ = locate(g, g0, span, 1e-12)
         assert verdict == root.ROOT and tau == brentq(g, 0.0, span, xtol=1e-12, rtol=root.RTOL)
-        compared += 1
 
 
 def test_a_sign_change_through_a_pole_is_not_a_root():

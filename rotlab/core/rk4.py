@@ -25,8 +25,8 @@ def rk4_advance(y, times, out, i_start, substeps, max_steps, model):
 
     Stops after at most ``max_steps`` steps (at a sample).  Returns (status, next sample index,
     steps taken, partial steps at breakpoints included); on another status than OK
-    (``state_status``) the returned index is the sample whose interval failed.  ``model``: the scene's ``rotlab.scene.loads.Model`` (its
-    ``breaks``: sorted load breakpoints, may be empty).
+    (``state_status``) the returned index is the sample whose interval failed.  ``model``: the
+    scene's ``rotlab.scene.loads.Model`` (its ``breaks``: sorted load breakpoints, may be empty).
     """
     n = state_size(model)  # (8; more with driven rotors)
     k1 = work_vector(n)

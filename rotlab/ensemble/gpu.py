@@ -289,14 +289,13 @@ def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, c
     outputs = {"status": status, "valid": valid, "steps": steps, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
                "kept_count": kept_count}
     out = _to_device(outputs)
-    device_model, table = _model_to_device(model)
+    device_model, table_in_use = _model_to_device(model)  # (the table lives until the results are copied back)
     with _compiling():
         _fixed_step_kernel(advance)[blocks(y0.shape[0]), THREADS](
             inputs["y0"], inputs["times"], inputs["substeps"], max_steps, device_model, _tuple_to_device(extra),
             inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["steps"],
             out["last"], out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     _copy_back(out, outputs)
-    del table  # (after the copy, which waits for the kernel)
 
 
 def cases_per_batch(cases: int, samples: int) -> int:
@@ -314,7 +313,7 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, cl
     outputs = {"counters": counters, "clocks": clocks, "status": status, "valid": valid, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
                "kept_count": kept_count}
     out = _to_device(outputs)
-    device_model, table = _model_to_device(model)
+    device_model, table_in_use = _model_to_device(model)  # (as ``fixed_step_ensemble``)
     b, n = y0.shape[0], times.shape[0]
     batch = cases_per_batch(b, n)
     grid = cuda.device_array((batch, n, STATE_SIZE))
@@ -326,4 +325,3 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, cl
                 out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     del grid
     _copy_back(out, outputs)
-    del table  # (after the copy, which waits for the kernels)
