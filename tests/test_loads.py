@@ -22,7 +22,7 @@ from rotlab.core import opcodes, quaternion as quat
 from rotlab.core.dynamics import rhs
 from rotlab.core.expressions import series_step
 from rotlab.errors import InputError
-from rotlab.scene.loads import ProgramBuilder
+from rotlab.scene.programs import ProgramBuilder
 from rotlab.scene.scene import build_scene
 
 STEPPERS = ("rk4", "rkmk4", "dop853", "taylor")

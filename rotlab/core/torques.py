@@ -27,6 +27,7 @@ from rotlab.core.state import P0, Q0, STATE_SIZE
 from rotlab.core.targets import overload
 
 # columns of a torque term, a table, an expression load (written by rotlab.scene.loads)
+BODY, SPACE = 0.0, 1.0  # a load's frame column (T_FRAME, TB_FRAME, EX_FRAME): the kernels read any value ≠ 0 as space
 F_POINT, F_FORCE = 0, 3
 F_COLUMNS = 6
 T_FRAME, T_ON, T_OFF, T_OFFSET, T_AMP, T_W, T_PHASE = 0, 1, 2, 3, 6, 9, 10

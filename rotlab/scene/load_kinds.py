@@ -29,9 +29,9 @@ from typing import Any, Literal
 import numpy as np
 
 from rotlab.config import models as cfg
+from rotlab.core.torques import BODY, SPACE
 from rotlab.scene import geomagnetic
 
-BODY, SPACE = 0.0, 1.0  # a load's frame, as the kernels read it
 
 
 @dataclass(frozen=True)

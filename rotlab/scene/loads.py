@@ -14,22 +14,19 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rotlab.config import expressions as formulas
-from rotlab.scene import formulas as generated
 from rotlab.config import models as cfg
 from rotlab.core import opcodes
 from rotlab.core.dynamics import euler_coefficients
-from rotlab.core.expressions import aux_rows
 from rotlab.core.model import Drives, Expressions, Model
 from rotlab.core.quaternion import from_matrix, rotate_to_space_array
 from rotlab.core.torques import (
-    EX_COLUMNS, EX_FORCE, EX_FRAME, EX_OFF, EX_ON, EX_POINT, EX_PROGRAMS, EX_RATE, EX_UP, EX_UP2, F_COLUMNS, F_FORCE, F_POINT,
+    BODY, EX_COLUMNS, EX_OFF, EX_ON, EX_RATE, F_COLUMNS, F_FORCE, F_POINT,
     T_AMP, T_COLUMNS, T_OFF, T_OFFSET, T_ON, T_W, TB_COLUMNS, TB_OFF, TB_ON,
 )
-from rotlab.scene.load_kinds import BODY as BODY_FRAME, Compiling, drive_formula, kind_of
+from rotlab.scene.load_kinds import Compiling, drive_formula, kind_of
+from rotlab.scene.programs import ProgramBuilder
 from rotlab.scene.user_torque import UserTorque
 
-UNNAMED = ("formula x", "formula y", "formula z")  # what a failure calls a formula built without names
 
 
 class LoadArrays(NamedTuple):
@@ -82,56 +79,6 @@ def _no_expressions(moments: np.ndarray) -> Expressions:
                        np.asarray(moments, dtype=float), 1, 0, 0)
 
 
-class ProgramBuilder:
-    """Expression loads being compiled: rows, concatenated code and constants."""
-
-    def __init__(self) -> None:
-        self.rows: list[np.ndarray] = []
-        self.code: list[tuple[int, int, int]] = []
-        self.aux = 0
-        self.consts: list[float] = []
-        self.depth = 1
-        self.programs: list[list[formulas.Program]] = []
-        self.names: list[tuple[str, str, str]] = []
-
-    def add(self, programs: list[tuple[formulas.Program, int]], frame: float, window: tuple[float, float],
-            point: np.ndarray | None = None, up: np.ndarray = np.array([0.0, 0.0, 1.0]), up2: np.ndarray = np.zeros(3),
-            rate: float = 0.0, names: tuple[str, str, str] = UNNAMED) -> None:
-        """One expression load; ``names`` says what each component is (failure messages)."""
-        row = np.zeros(EX_COLUMNS)
-        row[EX_FRAME], row[EX_ON], row[EX_OFF] = frame, window[0], window[1]
-        if point is not None:
-            row[EX_FORCE] = 1.0
-            row[EX_POINT:EX_POINT + 3] = point
-        row[EX_UP:EX_UP + 3], row[EX_UP2:EX_UP2 + 3], row[EX_RATE] = up, up2, rate
-        for k, (program, depth) in enumerate(programs):
-            row[EX_PROGRAMS + 2 * k] = len(self.code)
-            for opcode, arg in program:
-                if opcode == opcodes.CONST:
-                    self.code.append((opcode, len(self.consts), 0))
-                    self.consts.append(arg)
-                else:
-                    self.code.append((opcode, int(arg), self.aux))
-                    self.aux += aux_rows(opcode, int(arg))
-            row[EX_PROGRAMS + 2 * k + 1] = len(self.code)
-            self.depth = max(self.depth, depth)
-        self.rows.append(row)
-        self.programs.append([program for program, _ in programs])
-        self.names.append(names)
-
-    def formulas(self, texts: list[str], constants: dict[str, float], frame: float, window: tuple[float, float],
-                 max_nodes: int = formulas.MAX_NODES, **kw) -> None:
-        self.add([formulas.parse_formula(text, constants, max_nodes) for text in texts], frame, window, **kw)
-
-    def build(self, axes: np.ndarray, moments: np.ndarray) -> Expressions | None:
-        if not self.rows:
-            return None
-        return Expressions(np.array(self.rows), np.array(self.code, dtype=np.int64).reshape(-1, 3),
-                           np.array(self.consts, dtype=float), np.ascontiguousarray(axes, dtype=float),
-                           from_matrix(axes), np.asarray(moments, dtype=float), self.depth, self.aux,
-                           generated.compiled(self.programs).address)
-
-
 def compile_loads(body: cfg.Body, loads: Sequence[cfg.Load], axes: np.ndarray, moments: np.ndarray, user: UserTorque | None = None,
                   user_function: Callable | None = None, rotors: Sequence[cfg.Rotor] = ()) -> LoadArrays:
     """Turn a scenario's loads on ``body`` into arrays, each by its kind's declaration
@@ -148,7 +95,7 @@ def compile_loads(body: cfg.Body, loads: Sequence[cfg.Load], axes: np.ndarray, m
         program, window = drive_formula(rotor)
         what = f"= {rotor.torque!r}" if isinstance(rotor.torque, str) else "(pd_control)"
         up = rotor.unit_up() if isinstance(rotor.torque, str) else np.array([0.0, 0.0, 1.0])
-        programs.add(program, BODY_FRAME, window, up=up, names=(f"rotors[{k}].torque {what}", "", ""))
+        programs.add(program, BODY, window, up=up, names=(f"rotors[{k}].torque {what}", "", ""))
     every = programs.build(axes, moments)
     expressions = every if every is None or not driven else (every._replace(rows=every.rows[:offset]) if offset else None)
     drives = None if not driven else Drives(every._replace(rows=every.rows[offset:]), offset, np.array(  # type: ignore[union-attr]

@@ -14,7 +14,7 @@ from rotlab.errors import InputError
 from rotlab.methods.base import ADAPTIVE, LocalSolution, ProgressCallback, Settings, Solution
 from rotlab.methods.cost import Estimate, Work, taylor_estimate
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
-from rotlab.scene.load_kinds import SPACE
+from rotlab.core.torques import SPACE
 from rotlab.scene.loads import active_forces, has_nonconservative
 from rotlab.scene.scene import Scene
 
