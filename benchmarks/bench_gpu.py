@@ -16,7 +16,9 @@ models are built by hand:
   dispersed by 5%.
 
 Rows: ``rk4`` on the top (h = 1e-3 s, 1,000 steps a case, 11 samples), ``dmv`` order 8 on the free
-body (h = 1e-3 s, 1,000 steps), ``dop853`` on the top (10 s at 10 samples/s, rtol 1e-10, atol
+body (h = 1e-3 s, 1,000 steps), ``rk4-formula``: ``rk4`` on the top with a formula load (``FORMULA``,
+interpreted on the device; its ``sin`` is libdevice's, so its last bits may differ from the CPU's),
+``dop853`` on the top (10 s at 10 samples/s, rtol 1e-10, atol
 1e-12, its own steps: the mean is printed).  "kernel" times the kernel on device arrays
 (``cuda.synchronize`` before and after, median of ``--repeats``); "end to end" times
 ``gpu.fixed_step_ensemble`` / ``gpu.dop853_ensemble`` with their copies to and from the device.
@@ -37,6 +39,7 @@ from rotlab.core.dmv import dmv_advance, modified_coefficients
 from rotlab.core.dynamics import euler_coefficients
 from rotlab.core.model import Model
 from rotlab.core.rk4 import rk4_advance
+from rotlab.core.torques import BODY
 from rotlab.ensemble import gpu, observe as ob
 from rotlab.ensemble.kernels import dop853_case, report_whole
 
@@ -46,8 +49,21 @@ RTOL, ATOL = 1e-10, 1e-12
 MAX_STEPS = 10**9
 
 
-def model_of(forces: np.ndarray | None) -> Model:
-    return Model(euler_coefficients(MOMENTS), np.zeros(0), forces, None, None, None, None, None, None, None)
+# a formula load on the top (body frame, N·m): damping with a harmonic term, interpreted on a GPU (``run_program``)
+FORMULA = (["-k*omega[0] + a*sin(w*t)", "-k*omega[1]", "-k*omega[2]*q[0]"], {"k": 1e-5, "a": 1e-4, "w": 3.0})
+
+
+def model_of(forces: np.ndarray | None, formula: bool = False) -> Model:
+    return Model(euler_coefficients(MOMENTS), np.zeros(0), forces, None, None, None, None, None, formula_load() if formula else None, None)
+
+
+def formula_load():
+    """``FORMULA`` as the scene's ``Expressions`` (parsed and compiled as a scenario's are)."""
+    from rotlab.scene.programs import ProgramBuilder
+
+    builder = ProgramBuilder()
+    builder.formulas(*FORMULA, BODY, (-np.inf, np.inf))
+    return builder.build(np.eye(3), MOMENTS)
 
 
 def initial_states(cases: int, omega: tuple[float, float, float], seed: int = 7) -> np.ndarray:
@@ -86,6 +102,7 @@ class Outputs:
         self.last, self.acc = np.zeros((cases, 8)), np.zeros((cases, ob.ACC_COLUMNS))
         self.keep = np.full(cases, -1, dtype=np.int64)
         self.kept, self.kept_t, self.kept_count = np.zeros((1, 1, 8)), np.zeros((1, 1)), np.zeros(cases, dtype=np.int64)
+        self.found, self.fault = np.zeros((cases, 0, 3)), np.zeros((cases, 5))  # (no events)
 
     def tail(self) -> tuple:
         return self.status, self.valid, self.last, self.acc, self.keep, 1, self.kept, self.kept_t, self.kept_count
@@ -113,7 +130,7 @@ def cpu_alone(kind: str, y0, times, substeps, model, extra, case, shared, applie
         if kind == "dop853":
             code, i = dop853_case(y, times, rows, RTOL, ATOL, MAX_STEPS, 1 << 18, model, counted, np.zeros(3))
         else:
-            advance = rk4_advance if kind == "rk4" else dmv_advance
+            advance = dmv_advance if kind == "dmv" else rk4_advance
             code, i, counted[0] = advance(y, times, rows, 1, substeps, MAX_STEPS, model, *extra)
         report_whole(k, code, i, rows, times, case, shared, applies, forces, out.status, out.valid, out.last, out.acc, out.keep, 1,
                      out.kept, out.kept_t, out.kept_count, np.zeros(ob.ACC_COLUMNS), np.zeros(1, dtype=np.int64))
@@ -148,28 +165,30 @@ def row(name: str, cases: int, steps: float, kernel_s: float, end_s: float, diff
 
 
 def bench_fixed(kind: str, cases: int, check: int, repeats: int) -> None:
-    forces = FORCES if kind == "rk4" else np.zeros((0, 6))
-    model = model_of(FORCES if kind == "rk4" else None)
-    advance = rk4_advance if kind == "rk4" else dmv_advance
-    extra = () if kind == "rk4" else (8, modified_coefficients(MOMENTS))
-    y0 = initial_states(cases, (1.0, 2.0, 30.0) if kind == "rk4" else (0.1, 3.0, 0.1))
+    top = kind != "dmv"
+    forces = FORCES if top else np.zeros((0, 6))
+    model = model_of(FORCES if top else None, formula=kind == "rk4-formula")
+    advance = dmv_advance if kind == "dmv" else rk4_advance
+    extra = (8, modified_coefficients(MOMENTS)) if kind == "dmv" else ()
+    y0 = initial_states(cases, (1.0, 2.0, 30.0) if top else (0.1, 3.0, 0.1))
     times = np.linspace(0.0, 1.0, 11)
     substeps = np.full(cases, 100, dtype=np.int64)
     case, shared, applies = observe_inputs(y0, forces)
     out = Outputs(cases)
     call = lambda: gpu.fixed_step_ensemble(advance, y0, times, substeps, MAX_STEPS, model, extra, case, shared, applies, forces,  # noqa: E731
-                                           out.status, out.valid, out.steps, out.last, out.acc, out.keep, 1, out.kept, out.kept_t,
+                                           None, out.found, out.fault, out.status, out.valid, out.steps, out.last, out.acc, out.keep, 1, out.kept, out.kept_t,
                                            out.kept_count)
     call()  # compiles
     end_to_end = median_time(call, repeats)
-    d = {k: cuda.to_device(v) for k, v in dict(y0=y0, times=times, substeps=substeps, case=case, shared=shared, applies=applies,
-                                                forces=forces, status=out.status, valid=out.valid, steps=out.steps, last=out.last,
+    d = {k: gpu._device_array(v) for k, v in dict(y0=y0, times=times, substeps=substeps, case=case, shared=shared, applies=applies,
+                                                forces=forces, found=out.found, fault=out.fault, status=out.status, valid=out.valid, steps=out.steps, last=out.last,
                                                 acc=out.acc, keep=out.keep, kept=out.kept, kept_t=out.kept_t,
                                                 kept_count=out.kept_count).items()}
-    kernel = gpu._fixed_step_kernel(advance)
+    kernel = gpu._fixed_step_kernel(advance, 0)
+    device_model, table_in_use = gpu._model_to_device(model)  # (a formula load: its table's address in the model)
     launch = lambda: kernel[gpu.blocks(cases), gpu.THREADS](  # noqa: E731
-        d["y0"], d["times"], d["substeps"], MAX_STEPS, gpu._tuple_to_device(model), gpu._tuple_to_device(extra), d["case"],
-        d["shared"], d["applies"], d["forces"], d["status"], d["valid"], d["steps"], d["last"], d["acc"], d["keep"], 1, d["kept"],
+        d["y0"], d["times"], d["substeps"], MAX_STEPS, device_model, gpu._tuple_to_device(extra), d["case"],
+        d["shared"], d["applies"], d["forces"], None, d["found"], d["fault"], d["status"], d["valid"], d["steps"], d["last"], d["acc"], d["keep"], 1, d["kept"],
         d["kept_t"], d["kept_count"])
     with gpu._compiling():  # (a launch that compiled anew would get the same options)
         kernel_only = median_time(launch, repeats)
@@ -187,16 +206,16 @@ def bench_dop853(cases: int, check: int, repeats: int) -> None:
     case, shared, applies = observe_inputs(y0, FORCES)
     out = Outputs(cases)
     call = lambda: gpu.dop853_ensemble(y0, times, RTOL, ATOL, MAX_STEPS, 1 << 18, model, out.counters, out.clocks, case, shared, applies,  # noqa: E731
-                                       FORCES, *out.tail())
+                                       FORCES, None, out.found, out.fault, *out.tail())
     call()
     end_to_end = median_time(call, repeats)
-    d = {k: cuda.to_device(v) for k, v in dict(y0=y0, times=times, case=case, shared=shared, applies=applies, forces=FORCES,
-                                                counters=out.counters, clocks=out.clocks, status=out.status, valid=out.valid, last=out.last, acc=out.acc,
+    d = {k: gpu._device_array(v) for k, v in dict(y0=y0, times=times, case=case, shared=shared, applies=applies, forces=FORCES,
+                                                found=out.found, fault=out.fault, counters=out.counters, clocks=out.clocks, status=out.status, valid=out.valid, last=out.last, acc=out.acc,
                                                 keep=out.keep, kept=out.kept, kept_t=out.kept_t, kept_count=out.kept_count).items()}
     grid = cuda.device_array((cases, times.shape[0], 8))
-    launch = lambda: gpu._dop853_kernel[gpu.blocks(cases), gpu.THREADS](  # noqa: E731
+    launch = lambda: gpu._dop853_kernel(0)[gpu.blocks(cases), gpu.THREADS](  # noqa: E731
         0, d["y0"], d["times"], grid, RTOL, ATOL, MAX_STEPS, 1 << 18, gpu._tuple_to_device(model), d["counters"], d["clocks"], d["case"],
-        d["shared"], d["applies"], d["forces"], d["status"], d["valid"], d["last"], d["acc"], d["keep"], 1, d["kept"], d["kept_t"], d["kept_count"])
+        d["shared"], d["applies"], d["forces"], None, d["found"], d["fault"], d["status"], d["valid"], d["last"], d["acc"], d["keep"], 1, d["kept"], d["kept_t"], d["kept_count"])
     with gpu._compiling():  # (a launch that compiled anew would get the same options)
         kernel_only = median_time(launch, repeats)
     k = min(check, cases)
@@ -224,7 +243,7 @@ def main() -> None:
     parser.add_argument("--check", type=positive, default=256, help="cases compared with the CPU run alone")
     parser.add_argument("--threads", type=positive, nargs="+", default=[gpu.THREADS], help="threads per block to try")
     parser.add_argument("--repeats", type=positive, default=5)
-    parser.add_argument("--only", nargs="+", default=["rk4", "dmv", "dop853"])
+    parser.add_argument("--only", nargs="+", default=["rk4", "dmv", "dop853", "rk4-formula"])
     parser.add_argument("--max-registers", type=register_cap, nargs="+", default=[None],
                         help="registers a thread to try (an integer, or default: ptxas's choice)")
     parser.add_argument("--fma", action="store_true", help="compile with fused multiply-adds (NVVM -fma=1; not the CPU's rounding)")
@@ -244,7 +263,7 @@ def main() -> None:
         if cap != gpu.MAX_REGISTERS:
             gpu.MAX_REGISTERS = cap
             gpu.rebuild_kernels()
-        for kind in ("rk4", "dmv"):
+        for kind in ("rk4", "dmv", "rk4-formula"):
             if kind in args.only:
                 for cases in args.cases:
                     bench_fixed(kind, cases, args.check, args.repeats)

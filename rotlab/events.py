@@ -84,8 +84,10 @@ class CompiledEvents:
 
     def __init__(self, events: list[Event], scene: Scene) -> None:
         self.specs = tuple(events)
-        programs = [[program for program, _ in event.programs()] for event in events]
-        self._function = formulas.compiled(programs, checked=False)  # kept alive: the kernels hold its address only
+        parsed = [event.programs() for event in events]
+        self.programs = [[program for program, _ in formulas_] for formulas_ in parsed]
+        self.depth = max(depth for formulas_ in parsed for _, depth in formulas_)
+        self._function = formulas.compiled(self.programs, checked=False)  # kept alive: the kernels hold its address only
         self.fn = self._function.address
         self.rows = np.zeros((len(events), EX_COLUMNS))
         for k, event in enumerate(events):
@@ -94,7 +96,7 @@ class CompiledEvents:
             self.rows[k, EX_OFF] = np.inf
         # the formulas of each event that read only t and ω (VAR inputs 0–3: ``core.opcodes.INPUTS``)
         self.rates_only = [[all(arg < RATE_INPUTS for opcode, arg in program if opcode == opcodes.VAR) for program in formulas_]
-                           for formulas_ in programs]
+                           for formulas_ in self.programs]
         self.axes = np.ascontiguousarray(scene.axes, dtype=float)
         self.axes_q = from_matrix(self.axes)
         self.moments = np.asarray(scene.moments, dtype=float)

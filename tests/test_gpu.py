@@ -96,6 +96,42 @@ def test_a_case_that_blows_up_on_the_gpu_stops_where_it_does_on_the_cpu():
     assert "rk4" in result.stdout and "dop853" in result.stdout
 
 
+def test_events_on_the_gpu_are_the_cpu_ensembles_bit_for_bit():
+    """A scene's events on the (simulated) GPU, rk4 and dop853: located (two events, one with
+    ``record`` formulas), a ``when`` that turns non-finite mid-run, a ``record`` formula that is
+    not finite at its event, a ``when`` not finite at the first sample: every event column, the
+    samples made and the failure messages ``np.array_equal`` to the CPU ensemble's."""
+    result = _python("""
+        import numpy as np
+        from rotlab.ensemble.block import run_block
+        from rotlab.methods.base import Settings
+        from rotlab.methods.registry import get_method
+        from tests.test_ensemble import _scenes
+
+        SETS = {"located": [{"name": "flip", "when": "omega[1]", "direction": "falling", "record": ["omega[0]", "t*q[0]"]},
+                            {"name": "up", "when": "omega[2] - 0.005", "direction": "both"}],
+                "when stops": [{"name": "flip", "when": "omega[1]", "direction": "falling"},
+                               {"name": "late", "when": "sqrt(omega[0] + 1.0 - t) - 10", "direction": "both"}],
+                "record stops": [{"name": "flip", "when": "omega[1]", "direction": "falling", "record": ["log(1.3 - t)"]}],
+                "first sample": [{"name": "never", "when": "log(-omega[1])"}]}
+        for method, changes in (("rk4", {"step": 1e-3}), ("dop853", {})):
+            for name, events in SETS.items():
+                scenes = _scenes("sweep_flip.toml", 3.0, method, changes, events=events)
+                t = scenes[0].scenario.time.sample_times()
+                args = (scenes, get_method(method), Settings.of(scenes[0].scenario.solver), t, [0, 4], 3, [None] * len(scenes))
+                cpu, cuda = run_block(*args), run_block(*args, device="cuda")
+                assert cpu.events.keys() == cuda.events.keys() and len(cpu.events) == 3 * len(events)
+                assert all(np.array_equal(cpu.events[k], cuda.events[k], equal_nan=True) for k in cpu.events), name
+                assert np.array_equal(cpu.valid, cuda.valid) and cpu.failure == cuda.failure, name
+                stopped = sum(f is not None for f in cuda.failure)
+                assert stopped == {"located": 0, "when stops": 5, "record stops": 3, "first sample": 5}[name], (name, cuda.failure)
+                assert name != "located" or np.all(cuda.events["event_flip_count"] == 1)
+                print(method, name, "identical")
+    """, SIMULATOR)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert result.stdout.count("identical") == 8
+
+
 def _small_sweep(tmp_path: Path, extra: str = "") -> Path:
     text = (CONFIGS / "sweep_flip.toml").read_text().replace("end = 20.0", "end = 1.0")
     path = tmp_path / "small.toml"
@@ -104,13 +140,14 @@ def _small_sweep(tmp_path: Path, extra: str = "") -> Path:
 
 
 def test_a_sweep_on_the_simulated_gpu_writes_the_cpu_sweeps_results(tmp_path):
-    """``rotlab sweep --device cuda``: results.csv byte for byte the CPU sweep's; the terminal says
-    where the cases ran."""
-    config = _small_sweep(tmp_path)
+    """``rotlab sweep --device cuda``, with an event: results.csv (the event's columns among
+    them) byte for byte the CPU sweep's; the terminal says where the cases ran."""
+    config = _small_sweep(tmp_path, '\n[[events]]\nname = "half_turn"\nwhen = "q[0]"\nrecord = ["omega[1]"]\n')
     gpu = _rotlab(["sweep", str(config), "--device", "cuda", "-o", str(tmp_path / "gpu")], SIMULATOR, tmp_path)
     cpu = _rotlab(["sweep", str(config), "-o", str(tmp_path / "cpu")], NO_GPU, tmp_path)
     assert gpu.returncode == 0 and cpu.returncode == 0, gpu.stderr + cpu.stderr
     assert (tmp_path / "gpu" / "results.csv").read_bytes() == (tmp_path / "cpu" / "results.csv").read_bytes()
+    assert "event_half_turn_count" in (tmp_path / "gpu" / "results.csv").read_text().splitlines()[0]
     assert "one thread per case on the GPU" in gpu.stdout
 
 
@@ -209,17 +246,18 @@ def test_the_api_honours_the_files_device_and_a_gpu_failure_is_one_line(tmp_path
 
 def test_the_gpu_benchmark_runs_without_rotlabs_other_dependencies():
     """benchmarks/bench_gpu.py in the simulator: every row's steps and last states equal the CPU's
-    run alone, and it imported neither pydantic, rerun nor typer (a bare GPU machine has none)."""
+    run alone, and it imported neither pydantic, rerun nor typer (a bare GPU machine has none), nor
+    rotlab's configuration models (its formula row parses a formula with the parser alone)."""
     result = _python("""
         import runpy, sys
         sys.argv = ["bench_gpu.py", "--cases", "2", "--dop853-cases", "2", "--check", "2", "--repeats", "1"]
         runpy.run_path("benchmarks/bench_gpu.py", run_name="__main__")
-        loaded = sorted(m for m in ("pydantic", "rerun", "typer", "rotlab.config", "rotlab.scene") if m in sys.modules)
+        loaded = sorted(m for m in ("pydantic", "rerun", "typer", "rotlab.config.models", "rotlab.scene.scene") if m in sys.modules)
         print("loaded:", loaded)
     """, SIMULATOR)
     assert result.returncode == 0, result.stderr[-3000:]
     rows = [line for line in result.stdout.splitlines() if line.startswith(("| rk4", "| dmv", "| dop853"))]
-    assert len(rows) == 3 and all(line.rstrip().endswith("| yes | yes |") for line in rows), result.stdout
+    assert len(rows) == 4 and any(line.startswith("| rk4-formula") for line in rows) and all(line.rstrip().endswith("| yes | yes |") for line in rows), result.stdout
     assert "loaded: []" in result.stdout
 
 
@@ -266,7 +304,7 @@ def test_a_gpu_result_that_is_not_the_cpus_stops_the_sweep_in_one_line(tmp_path)
         run = gpu.fixed_step_ensemble
         def corrupted(*args):
             run(*args)
-            args[14][4, :4] = 0.0  # ``last`` of the block's case 4 (of 12: one call): Λ = 0, as the device gave
+            args[17][4, :4] = 0.0  # ``last`` of the block's case 4 (of 12: one call): Λ = 0, as the device gave
         gpu.fixed_step_ensemble = corrupted
         from rotlab.cli import main
         sys.argv = ["rotlab", "sweep", {str(config)!r}, "--device", "cuda", "-o", {str(tmp_path / "out")!r}]

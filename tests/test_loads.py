@@ -472,14 +472,15 @@ def test_the_gpus_formula_interpreter_gives_the_compiled_functions_values_bit_fo
     included, at 200 random inputs and at t = 1 (a pole), run here on the CPU (the same
     libm; on a GPU the library functions are libdevice's)."""
     from rotlab.core.expressions import run_program
-    from rotlab.core.formula_table import formula_table
+    from rotlab.core.formula_table import expression_programs, formula_table
     from rotlab.scene import formulas
 
     builder = ProgramBuilder()
     for texts in GPU_FORMULAS:
         builder.formulas(texts, {"k": 0.3}, 0.0, (-np.inf, np.inf))
     ex = builder.build(np.eye(3), np.ones(3))
-    table = formula_table(ex.rows, ex.code, ex.consts)
+    table = formula_table(expression_programs(ex))  # (the model's programs read back, as the GPU's table is made)
+    assert np.array_equal(table, formula_table(builder.programs))  # (… which are the generated function's)
     compiled = formulas.compiled(builder.programs, checked=False).ctypes
     rng = np.random.default_rng(3)
     points = [rng.normal(0.0, 2.0, opcodes.N_INPUTS) for _ in range(200)] + [np.r_[1.0, np.zeros(opcodes.N_INPUTS - 1)]]
@@ -494,15 +495,42 @@ def test_the_gpus_formula_interpreter_gives_the_compiled_functions_values_bit_fo
     assert special > 100  # NaN and inf were compared, not only finite values
 
 
+def test_the_formula_table_of_events_interprets_each_events_formulas_as_their_compiled_function():
+    """Events have 1 + len(record) formulas each (3, 1, 2 here): the table's rows are as wide as
+    the widest event, and ``run_program`` over ``block.event_inputs``' table (the GPU's way) gives
+    the compiled events function's values bit for bit, NaN and inf included."""
+    import ctypes
+
+    from rotlab.core.expressions import run_program
+    from rotlab.ensemble.block import event_inputs
+
+    events = [{"name": "a", "when": "omega[1]", "record": ["atan2(omega[0], omega[2])", "log(t - 1) * q[0]"]},
+              {"name": "b", "when": "exp(L[2]) - gamma[0]**3"}, {"name": "c", "when": "tan(t)", "record": ["sqrt(q[3])/(omega[0] - 1)"]}]
+    scene = build_scene(parse_scenario({"body": {"principal_moments": [1.0, 2.0, 3.0]}, "time": {"end": 1.0}, "events": events}))
+    inputs, compiled = event_inputs(scene)
+    assert inputs.table[0] == 3 and inputs.depth == compiled.depth >= 2
+    function = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * opcodes.N_INPUTS)(inputs.fn)
+    rng = np.random.default_rng(11)
+    special = 0
+    for _ in range(200):
+        x = rng.normal(0.0, 2.0, opcodes.N_INPUTS)
+        for k, event in enumerate(events):
+            for component in range(1 + len(event.get("record", []))):
+                expected = function(k, component, *x)
+                assert np.array_equal(run_program(inputs.table, k, component, tuple(x)), expected, equal_nan=True), (k, component, x)
+                special += not np.isfinite(expected)
+    assert special > 50
+
+
 def test_the_formula_table_of_a_gyrostat_holds_its_drives_after_its_loads():
     """Driven rotors' formulas (pd_control) are the programs' loads after the formula loads'
     (``Drives.offset``): the table of both row sets, in that order, interprets each as the scene's
-    compiled function does, bit for bit (``gpu._model_to_device`` builds it so)."""
+    compiled function does, bit for bit (``model_formula_table``, which ``gpu._model_to_device`` calls)."""
     import ctypes
 
     from rotlab.config.loader import read_toml
     from rotlab.core.expressions import run_program
-    from rotlab.core.formula_table import formula_table
+    from rotlab.core.formula_table import model_formula_table
     from tests.conftest import CONFIGS
 
     raw = read_toml(CONFIGS / "wheel_slew.toml")
@@ -510,7 +538,8 @@ def test_the_formula_table_of_a_gyrostat_holds_its_drives_after_its_loads():
     model = build_scene(parse_scenario(raw, source="wheel_slew.toml")).model
     ex, drives = model.expressions, model.drives
     assert ex is not None and drives is not None and drives.offset == ex.rows.shape[0] == 1
-    table = formula_table(np.concatenate([ex.rows, drives.ex.rows]), ex.code, ex.consts)
+    table, depth = model_formula_table(model)
+    assert depth == max(ex.depth, drives.ex.depth)
     compiled = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * opcodes.N_INPUTS)(ex.fn)
     rng = np.random.default_rng(5)
     programs = [(0, c) for c in range(3)] + [(drives.offset + j, 0) for j in range(drives.axes.shape[0])]

@@ -118,7 +118,6 @@ def _call_formulas_gpu(address, load, component, inputs):
 
 
 # ``rotlab.core.formula_table``'s layout, which ``run_program`` reads
-COMPONENTS = 3  # programs a load's row of the table indexes (a load's three components; a drive's one)
 STACK = 40  # values on ``run_program``'s stack: above the deepest program the parser lets through
 TABLE_OPS = 2  # the table's entries for one instruction: opcode, value
 
@@ -128,7 +127,7 @@ def run_program(table, load, component, inputs):
     """The value of a program of ``rotlab.core.formula_table`` (``table``: anything indexed by
     position, an array or a device pointer) at ``inputs``: the operations of the generated function
     (``rotlab.scene.formulas.source_of``), the same helpers, in the same order."""
-    at = 2 * (COMPONENTS * load + component)
+    at = 1 + 2 * (int(table[0]) * load + component)
     first, count = int(table[at]), int(table[at + 1])
     stack = work_vector(STACK)
     top = -1

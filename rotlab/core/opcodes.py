@@ -8,9 +8,13 @@ pops b then replaces a by op(a, b).  POWI raises the top to the integer power ar
 ``MAX_INTEGER_POWER``).
 """
 
+Program = list[tuple[int, float]]  # (opcode, argument) rows; a CONST's argument the constant itself
+
 CONST, VAR = 0, 1
 NEG, SIN, COS, TAN, EXP, LOG, SQRT, ABS, TANH, SIGN, POWI = 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12
 ADD, SUB, MUL, DIV, POW, ATAN2, MIN, MAX = 20, 21, 22, 23, 24, 25, 26, 27
+
+LIBRARY = frozenset({SIN, COS, TAN, EXP, LOG, TANH, POW, ATAN2})  # a library function's value: its last bit may differ between libms (a GPU's libdevice)
 
 UNARY_FUNCTIONS = {"sin": SIN, "cos": COS, "tan": TAN, "exp": EXP, "log": LOG, "sqrt": SQRT, "abs": ABS, "tanh": TANH, "sign": SIGN}
 BINARY_FUNCTIONS = {"atan2": ATAN2, "min": MIN, "max": MAX}

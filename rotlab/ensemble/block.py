@@ -21,6 +21,7 @@ import numpy as np
 from numba import parallel_chunksize
 
 from rotlab.checks import period_of
+from rotlab.core.formula_table import formula_table
 from rotlab.core.kernel_status import ATTITUDE_LOST, NONFINITE, OK, STALLED
 from rotlab.ensemble import observe as ob
 from rotlab.ensemble.cross_check import GpuDisagreement, checked_cases, disagreement, library_calls
@@ -42,7 +43,7 @@ def _dop853(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndar
     if device == "cuda":
         from rotlab.ensemble.gpu import dop853_ensemble
 
-        dop853_ensemble(*head, scene.model, counters, clocks, *inputs, *outputs)
+        dop853_ensemble(*head, scene.model, counters, clocks, *inputs, *events, *outputs)
     else:
         from rotlab.ensemble.kernels import dop853_ensemble, parallel_model, thread_grids
 
@@ -61,7 +62,7 @@ def _taylor(scene: Scene, method, settings: Settings, t: np.ndarray, y0: np.ndar
 
 
 # adaptive methods with an ensemble kernel, each run as its single run is (fixed-step ones all have one):
-# run(scene, method, settings, t, y0, counters, clocks, (case, shared, applies, forces), (events, found, fault) (the CPU's only),
+# run(scene, method, settings, t, y0, counters, clocks, (case, shared, applies, forces), (events, found, fault),
 # (status, valid, last, acc, keep, stride, kept, kept_t, kept_count), device=…) → the run's details
 ADAPTIVE_KERNELS = {"dop853": _dop853, "taylor": _taylor}
 # the methods whose kernels compile for an NVIDIA GPU (``rotlab.ensemble.gpu``; splitting's and taylor's
@@ -162,7 +163,8 @@ def event_inputs(scene: Scene) -> tuple[EventInputs | None, CompiledEvents | Non
         rates_only[k, :len(flags)] = flags
     return EventInputs(compiled.fn, compiled.rows, compiled.axes, compiled.axes_q, compiled.moments,
                        np.array([DIRECTIONS[spec.direction] for spec in specs], dtype=np.int64),
-                       np.array([len(spec.record) for spec in specs], dtype=np.int64), rates_only), compiled
+                       np.array([len(spec.record) for spec in specs], dtype=np.int64), rates_only, formula_table(compiled.programs),
+                       compiled.depth), compiled
 
 
 def event_failure(compiled: CompiledEvents, fault: np.ndarray) -> str:
@@ -205,15 +207,6 @@ def unsupported_on_gpu(method: object) -> str | None:
     if name in GPU_METHODS:
         return None
     return f"method {name!r} has no GPU kernel: choose one of {', '.join(GPU_METHODS)} (solver.method), or run without --device cuda"
-
-
-def unsupported_scene_on_gpu(scene: Scene) -> str | None:
-    """Why ``scene`` cannot run on the GPU, beyond ``unsupported_scene`` (None when it can):
-    events' formulas are compiled for the CPU (a C function the GPU cannot call; formula loads
-    are interpreted there instead, ``rotlab.core.expressions.run_program``)."""
-    if scene.scenario.events:
-        return "events' formulas are compiled for the CPU: run this sweep on the CPU (its ensemble kernels take them)"
-    return None
 
 
 @contextmanager
@@ -292,7 +285,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
 
             with _gpu_errors(device):
                 gpu.fixed_step_ensemble(method.kernel, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
-                                        *inputs, *outputs)
+                                        *inputs, events, found, fault, *outputs)
         else:
             with parallel_chunksize(1):
                 kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, *kernels.parallel_model(scene.model),
@@ -342,7 +335,8 @@ def _check_on_the_cpu(result: BlockResult, scenes: list[Scene], method, settings
         raise cpu
     found = disagreement(result, cpu, positions)
     if found is not None:
-        raise GpuDisagreement(*found, library_calls(scenes[0].model, method.name))
+        compiled = event_inputs(scenes[0])[1]
+        raise GpuDisagreement(*found, library_calls(scenes[0].model, method.name, compiled.programs if compiled is not None else []))
 
 
 def _formula_fault(method, scene: Scene, t: np.ndarray, settings: Settings) -> str | None:

@@ -2,15 +2,16 @@
 ensemble kernels, compared before any of the block's numbers are reported.
 
 The GPU kernels are the CPU's source compiled for the device without fused multiply–adds, so a
-case's numbers are meant to be the CPU's bit for bit; a load that calls a library function
-(``sin``, ``cos``: a harmonic torque, ``rkmk4``'s exponential map) may differ in
+case's numbers are meant to be the CPU's bit for bit; a call of a library function (``sin``,
+``cos``: a harmonic torque, ``rkmk4``'s exponential map, a formula's functions) may differ in
 its last bit, which a long or chaotic run amplifies. Device code can be wrong where numba's CUDA
 simulator, and so the tests, cannot see it (the simulator runs the CPU's compiled functions): a
 device session once ran ``dop853`` with its stages missing, a GPU-only implementation left
 unregistered (``targets.gpu_overload``, fixed), and got states that were garbage from the first
 sample (docs/benchmarks.md, "The GPU"). So each block's cases ``checked_cases`` are run again on
-the CPU: the status and the samples made must be equal, the last valid state and the observables
-within ``TOLERANCE`` (relative to their scale; the drifts, already relative, absolutely up to 1). A
+the CPU: the status and the samples made must be equal, the last valid state and the observables,
+the events' counts and times among them, within ``TOLERANCE`` (relative to their scale; the
+drifts, already relative, and the events' times, absolutely up to 1). A
 disagreement stops the run (``GpuDisagreement``: one line, exit 1) instead of reporting the
 device's numbers; the line says whether the call computes a library function (``library_calls``),
 whose last bit a chaotic motion can carry past the tolerance, besides wrong kernels.
@@ -23,6 +24,7 @@ from typing import Protocol
 
 import numpy as np
 
+from rotlab.core.opcodes import LIBRARY, Program
 from rotlab.core.torques import T_W
 from rotlab.errors import RunFailure
 
@@ -36,6 +38,7 @@ class Reported(Protocol):  # ``rotlab.ensemble.block.BlockResult``'s fields comp
     flip_period: np.ndarray
     max_nutation_deg: np.ndarray
     max_drift: dict[str, np.ndarray]
+    events: dict[str, np.ndarray]
 
 
 class GpuDisagreement(RunFailure):
@@ -59,16 +62,20 @@ def message(case: str, what: str, library: str | None) -> str:
     return f"the GPU's result for {case} differs from the CPU's ({what}): {cause}; run this sweep on the CPU (--device cpu)"
 
 
-def library_calls(model, method_name: str) -> str | None:
+def library_calls(model, method_name: str, event_programs: list[list[Program]] = ()) -> str | None:
     """What a GPU call computes with a library function, whose last bit may differ from the C
     library's (None: only correctly rounded operations, so the CPU's bits are expected): a
-    harmonic torque's ``sin``, ``rkmk4``'s ``sin`` and ``cos`` (formula loads, which call more,
-    do not run on the GPU)."""
+    harmonic torque's ``sin``, ``rkmk4``'s ``sin`` and ``cos``, a formula's (a load's, or one of
+    the events' ``event_programs``) ``sin``, ``exp``, … (``opcodes.LIBRARY``)."""
     calls = []
     if model.terms is not None and np.any(model.terms[:, T_W] != 0.0):
         calls.append("a harmonic torque's sin")
     if method_name == "rkmk4":
         calls.append("rkmk4's sin and cos")
+    if model.expressions is not None and any(int(opcode) in LIBRARY for opcode in model.expressions.code[:, 0]):
+        calls.append("a formula load's library functions")
+    if any(opcode in LIBRARY for programs in event_programs for program in programs for opcode, _ in program):
+        calls.append("an event formula's library functions")
     return " and ".join(calls) or None
 
 
@@ -90,7 +97,8 @@ def disagreement(gpu: Reported, cpu: Reported, positions: list[int]) -> tuple[in
         observables = {"flip period": (gpu.flip_period[k], cpu.flip_period[j], abs(cpu.flip_period[j])),
                        "max nutation": (gpu.max_nutation_deg[k], cpu.max_nutation_deg[j], max(abs(cpu.max_nutation_deg[j]), 1.0)),
                        **{f"max {name} drift": (gpu.max_drift[name][k], cpu.max_drift[name][j], max(abs(cpu.max_drift[name][j]), 1.0))
-                          for name in cpu.max_drift}}
+                          for name in cpu.max_drift},
+                       **{name: (gpu.events[name][k], cpu.events[name][j], max(abs(cpu.events[name][j]), 1.0)) for name in cpu.events}}
         for name, (a, b, scale) in observables.items():
             if not relative_difference(a, b, scale) <= TOLERANCE:
                 return k, f"{name} {a:.9g} against {b:.9g}"

@@ -24,10 +24,12 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
+from rotlab.core.dynamics import STATE_SIZE
 from rotlab.core.event_root import AT_SAMPLE, NOT_FINITE, PENDING, POLE, ROOT_STATE, locate_next, locate_start, time_tolerance
 from rotlab.core.event_values import crosses, formula_value, formula_values
+from rotlab.core.targets import gpu_overload
 from rotlab.ensemble.method_calls import local_state
 
 FOUND_COUNT, FOUND_FIRST, FOUND_LAST = 0, 1, 2  # columns of a case's ``found`` row per event
@@ -35,7 +37,7 @@ FOUND_COLUMNS = 3
 FAULT_KIND, FAULT_EVENT, FAULT_FORMULA, FAULT_T0, FAULT_T1 = 0, 1, 2, 3, 4
 FAULT_COLUMNS = 5
 NO_FAULT, AT_SAMPLE_FAULT, BETWEEN_FAULT, RECORD_FAULT = 0, 1, 2, 3
-BLOCK = 512  # rows whose ``when`` values are evaluated together (``scan_events``)
+BLOCK = 512  # rows whose ``when`` values are evaluated together (``scan_events``; a GPU's thread: one, ``device_event_scratch``)
 
 
 class EventInputs(NamedTuple):
@@ -51,6 +53,8 @@ class EventInputs(NamedTuple):
     direction: np.ndarray  # (E,) int64: RISING / FALLING bits
     records: np.ndarray  # (E,) int64: number of ``record`` formulas
     rates_only: np.ndarray  # (E, 1 + max records) bool: the formula reads only t and ω
+    table: np.ndarray  # the formulas' ``rotlab.core.formula_table`` (a GPU's ``fn``: ``rotlab.ensemble.gpu``)
+    depth: int  # the deepest formula's stack
 
 
 class EventScratch(NamedTuple):
@@ -61,7 +65,7 @@ class EventScratch(NamedTuple):
     tau: np.ndarray  # (E,) the located root from the interval's start
     when: np.ndarray  # (E,) its time
     verdict: np.ndarray  # (E,) int64: ``event_root`` verdict, −1: no crossing (or taken)
-    values: np.ndarray  # (E, BLOCK) each ``when`` on a block of rows
+    values: np.ndarray  # (E, BLOCK) each ``when`` on a block of rows (BLOCK: its width)
     root: np.ndarray  # (ROOT_STATE,)
     y: np.ndarray  # (state,) the local solution
     grid: np.ndarray  # (2,)
@@ -77,6 +81,33 @@ def event_scratch(events, width):
     e = events.direction.shape[0]
     return EventScratch(np.zeros(e), np.zeros(e), np.zeros(e), np.zeros(e), np.full(e, -1, dtype=np.int64), np.zeros((e, BLOCK)),
                         np.zeros(ROOT_STATE), np.zeros(width), np.zeros(2), np.zeros((2, width)), np.zeros(3, dtype=np.int64))
+
+
+def device_event_scratch(count):
+    """A GPU thread's ``EventScratch`` for ``count`` events (a compile-time constant; None for 0)
+    and states of ``STATE_SIZE`` columns, in its local memory (uninitialised: ``open_events`` and
+    ``_interval`` set what they read), ``values`` one row wide (a thread scans its rows one at a
+    time).  This Python body is what numba's CUDA simulator runs."""
+    if count == 0:
+        return None
+    return EventScratch(np.zeros(count), np.zeros(count), np.zeros(count), np.zeros(count), np.full(count, -1, dtype=np.int64),
+                        np.zeros((count, 1)), np.zeros(ROOT_STATE), np.zeros(STATE_SIZE), np.zeros(2), np.zeros((2, STATE_SIZE)),
+                        np.zeros(3, dtype=np.int64))
+
+
+@gpu_overload(device_event_scratch, inline="always")
+def _device_event_scratch_gpu(count):
+    if not isinstance(count, types.IntegerLiteral):
+        return None
+    if count.literal_value == 0:
+        return lambda count: None
+    from numba import cuda
+
+    e, f = count.literal_value, types.float64
+    return lambda count: EventScratch(cuda.local.array(e, f), cuda.local.array(e, f), cuda.local.array(e, f), cuda.local.array(e, f),
+                                      cuda.local.array(e, types.int64), cuda.local.array((e, 1), f),
+                                      cuda.local.array(ROOT_STATE, f), cuda.local.array(STATE_SIZE, f), cuda.local.array(2, f),
+                                      cuda.local.array((2, STATE_SIZE), f), cuda.local.array(3, types.int64))
 
 
 @njit(cache=True, inline="always")
@@ -124,15 +155,15 @@ def scan_events(method, solver, model, events, times, rows, stop, found, fault, 
     seen, ``open_events`` or the last scan's): each occurrence counted in ``found``
     (E, FOUND_COLUMNS), in time order within an interval.  Returns ``stop``, or the row where an
     event's formula stopped the case (its rows before are valid; ``fault`` says why: module
-    docstring).  Each ``when`` is evaluated on ``BLOCK`` rows at a time by ``formula_values``, the
+    docstring).  Each ``when`` is evaluated on ``BLOCK`` rows at a time (``s.values``' width) by ``formula_values``, the
     single run's loop (its rows' loop compiles for what the formula reads: ~7 ns a row, where a
     test per row and event of what it reads cost ~60)."""
     if events is None:
         return stop
-    fn, ex_rows, axes, axes_q, moments, direction, _, rates_only = events
+    fn, ex_rows, axes, axes_q, moments, direction, _, rates_only, _, _ = events
     g, g_now, values = s.g, s.g_now, s.values
-    for r0 in range(1, stop, BLOCK):
-        r1 = min(stop, r0 + BLOCK)
+    for r0 in range(1, stop, values.shape[1]):
+        r1 = min(stop, r0 + values.shape[1])
         for k in range(g.shape[0]):
             formula_values(fn, ex_rows, k, 0, times[r0:r1], rows[r0:r1], axes, axes_q, moments, rates_only[k, 0], values[k])
         for r in range(r0, r1):

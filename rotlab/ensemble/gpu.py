@@ -37,11 +37,12 @@ from numba import config, cuda, types
 from rotlab.core import targets
 from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.expressions import STACK
-from rotlab.core.formula_table import formula_table
+from rotlab.core.formula_table import model_formula_table
 from rotlab.core.kernel_status import OK
 from rotlab.core.model import Model
 from rotlab.errors import RunFailure, first_line
-from rotlab.ensemble.kernels import dop853_case, keep_samples, report_fixed_step, report_whole
+from rotlab.ensemble.event_scan import EventInputs, device_event_scratch, open_events, scan_events
+from rotlab.ensemble.kernels import dop853_case, keep_samples, report_fixed_step, report_whole, scan_dop853
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 
 THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
@@ -150,23 +151,24 @@ def _jit(kernel):
 
 def rebuild_kernels() -> None:
     """The kernels made again by ``_jit`` (after a change of ``MAX_REGISTERS``: a benchmark's)."""
-    global _dop853_kernel
     _FIXED.clear()
-    _dop853_kernel = _jit(_dop853_kernel.py_func)
+    _DOP853.clear()
 
 
-_FIXED: dict[object, object] = {}  # a fixed-step method's kernel → its CUDA kernel
+_FIXED: dict[tuple, object] = {}  # (a fixed-step method's kernel, events) → its CUDA kernel
+_DOP853: dict[int, object] = {}  # events → dop853's CUDA kernel
 
 
-def _fixed_step_kernel(advance):
+def _fixed_step_kernel(advance, events_count: int):
     """The CUDA kernel that runs the fixed-step ``advance`` (``rotlab.methods.fixed_step``'s
-    signature) for every case: ``kernels.fixed_step_ensemble``'s outputs, one sample interval a call."""
-    kernel = _FIXED.get(advance)
+    signature) for every case of a scene with ``events_count`` events: ``kernels.fixed_step_ensemble``'s
+    outputs, one sample interval a call, each interval's events found after it is made."""
+    kernel = _FIXED.get((advance, events_count))
     if kernel is not None:
         return kernel
 
-    def fixed_step(y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, status, valid, steps, last, acc,
-                   keep, stride, kept, kept_t, kept_count):
+    def fixed_step(y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, events, found, fault, status, valid,
+                   steps, last, acc, keep, stride, kept, kept_t, kept_count):
         b = cuda.grid(1)
         if b >= y0.shape[0] or substeps[b] <= 0:
             return
@@ -175,20 +177,24 @@ def _fixed_step_kernel(advance):
         rows = cuda.local.array((2, STATE_SIZE), types.float64)
         folded = cuda.local.array(ACC_COLUMNS, types.float64)
         count = cuda.local.array(1, types.int64)
+        watch = device_event_scratch(events_count)
         for m in range(STATE_SIZE):
             y[m] = y0[b, m]
         store_row(rows, 0, y)
+        opened = open_events(events, times, rows, fault[b], watch)
         constants = constants_of(case[b], shared, applies)
         observe_rows(times, rows, 0, 1, True, constants, forces, folded)
         count[0] = 0
         if keep[b] >= 0:
             keep_samples(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
         code, i, taken = OK, 1, 0
-        while i < n:
+        while i < n and opened == 1:
             code, j, done = advance(y, times[i - 1:i + 1], rows, 1, substeps[b], max_steps - taken, model, *extra)
             taken += done
             if code != OK or j == 1:  # non-finite (nothing stored), or the step budget cannot reach the sample
                 break
+            if scan_events(advance, (substeps[b], extra), model, events, times[i - 1:i + 1], rows, 2, found[b], fault[b], watch) == 1:
+                break  # an event's formula is not finite: the case ends before this sample
             observe_rows(times[i - 1:i + 1], rows, 1, 2, False, constants, forces, folded)
             if keep[b] >= 0:
                 keep_samples(rows, times[i - 1:i + 1], 1, 2, i - 1, stride, kept[keep[b]], kept_t[keep[b]], count)
@@ -197,34 +203,45 @@ def _fixed_step_kernel(advance):
         report_fixed_step(b, code, i, taken, rows[0], times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,
                           kept_count)
 
-    kernel = _FIXED[advance] = _jit(fixed_step)
+    kernel = _FIXED[(advance, events_count)] = _jit(fixed_step)
     return kernel
 
 
-@_jit
-def _dop853_kernel(first, y0, times, grid, rtol, atol, max_steps, chunk, model, counters, clocks, case, shared, applies, forces,
-                   status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
-    """Cases first … first + len(grid) − 1 of ``kernels.dop853_ensemble``, case b's samples in
-    ``grid[b − first]``."""
-    b = first + cuda.grid(1)
-    if b >= min(y0.shape[0], first + grid.shape[0]):
-        return
-    rows = grid[b - first]
-    y = cuda.local.array(STATE_SIZE, types.float64)
-    counted = cuda.local.array(3, types.int64)
-    clock = cuda.local.array(3, types.float64)
-    folded = cuda.local.array(ACC_COLUMNS, types.float64)
-    count = cuda.local.array(1, types.int64)
-    for m in range(STATE_SIZE):
-        y[m] = y0[b, m]
-    for m in range(3):
-        counted[m], clock[m] = 0, 0.0
-    store_row(rows, 0, y)
-    code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock)
-    store_row(counters, b, counted)
-    store_row(clocks, b, clock)
-    report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
-                 kept_count, folded, count)
+def _dop853_kernel(events_count: int):
+    """The CUDA kernel of ``kernels.dop853_ensemble`` for a scene with ``events_count`` events:
+    cases first … first + len(grid) − 1, case b's samples in ``grid[b − first]``."""
+    kernel = _DOP853.get(events_count)
+    if kernel is not None:
+        return kernel
+
+    def dop853(first, y0, times, grid, rtol, atol, max_steps, chunk, model, counters, clocks, case, shared, applies, forces, events,
+               found, fault, status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
+        b = first + cuda.grid(1)
+        if b >= min(y0.shape[0], first + grid.shape[0]):
+            return
+        rows = grid[b - first]
+        y = cuda.local.array(STATE_SIZE, types.float64)
+        counted = cuda.local.array(3, types.int64)
+        clock = cuda.local.array(3, types.float64)
+        folded = cuda.local.array(ACC_COLUMNS, types.float64)
+        count = cuda.local.array(1, types.int64)
+        watch = device_event_scratch(events_count)
+        for m in range(STATE_SIZE):
+            y[m] = y0[b, m]
+        for m in range(3):
+            counted[m], clock[m] = 0, 0.0
+        store_row(rows, 0, y)
+        code, i = OK, open_events(events, times, rows, fault[b], watch)
+        if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
+            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock)
+            i = scan_dop853((rtol, atol, max_steps), model, events, times, rows, i, code, found[b], fault[b], watch)
+        store_row(counters, b, counted)
+        store_row(clocks, b, clock)
+        report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+                     kept_count, folded, count)
+
+    kernel = _DOP853[events_count] = _jit(dop853)
+    return kernel
 
 
 def blocks(cases: int) -> int:
@@ -233,11 +250,11 @@ def blocks(cases: int) -> int:
 
 
 def _device_array(a: np.ndarray):
-    """``a`` in device memory; an empty one as an empty view of a one-row allocation (a null
-    pointer would do for its kernels, which never read it, but not for every driver call)."""
+    """``a`` in device memory; an empty one (no forces, no events) of the same shape, uncopied:
+    numba-cuda gives it a null pointer, which its kernels never read."""
     a = np.ascontiguousarray(a)
     if a.size == 0:
-        return cuda.to_device(np.zeros((1,) + a.shape[1:], dtype=a.dtype))[:0]
+        return cuda.device_array(a.shape, dtype=a.dtype)
     return cuda.to_device(a)
 
 
@@ -256,22 +273,38 @@ def _tuple_to_device(values: tuple) -> tuple:
 
 def _model_to_device(model: Model) -> tuple[Model, object]:
     """``model`` in device memory (``_tuple_to_device``) and, where it has formulas (loads', or
-    driven rotors'), its programs' ``formula_table`` with it: ``fn``, the CPU function's address,
+    driven rotors'), its ``model_formula_table`` with it: ``fn``, the CPU function's address,
     becomes the table's device address, which the GPU's ``call_formulas`` interprets.  The table is
     returned too: it must outlive the kernel calls (the model holds only its address)."""
-    drives = model.drives.ex if model.drives is not None else None
-    programs = [ex for ex in (model.expressions, drives) if ex is not None]  # (in the programs' load order: ``Drives.offset``)
-    if config.ENABLE_CUDASIM or not programs:
+    formulas = None if config.ENABLE_CUDASIM else model_formula_table(model)
+    if formulas is None:
         return _tuple_to_device(model), None
-    depth = max(ex.depth for ex in programs)
+    _within_stack(formulas[1])
+    table, address = _table_to_device(formulas[0])
+    expressions = None if model.expressions is None else model.expressions._replace(fn=address)
+    driven = None if model.drives is None else model.drives._replace(ex=model.drives.ex._replace(fn=address))
+    return _tuple_to_device(model._replace(expressions=expressions, drives=driven)), table
+
+
+def _events_to_device(events: EventInputs | None) -> tuple[EventInputs | None, object]:
+    """A scene's events in device memory, ``fn`` the device address of their ``table``, which
+    the GPU's ``call_formulas`` interprets (as ``_model_to_device``; the table returned too)."""
+    if config.ENABLE_CUDASIM or events is None:
+        return events, None
+    _within_stack(events.depth)
+    table, address = _table_to_device(events.table)
+    return _tuple_to_device(events._replace(fn=address)), table
+
+
+def _within_stack(depth: int) -> None:
     if depth > STACK:
         raise RunFailure(f"a formula needs a stack of {depth} values, beyond the GPU interpreter's {STACK}: run this sweep on the CPU")
-    table = cuda.to_device(formula_table(np.concatenate([ex.rows for ex in programs]), programs[0].code, programs[0].consts))
-    address = int(table.device_ctypes_pointer.value)
-    expressions = None if model.expressions is None else model.expressions._replace(fn=address)
-    driven = None if model.drives is None else model.drives._replace(ex=drives._replace(fn=address))
-    on_device = model._replace(expressions=expressions, drives=driven)
-    return _tuple_to_device(on_device), table
+
+
+def _table_to_device(table: np.ndarray) -> tuple[object, int]:
+    """A ``formula_table`` in device memory, and its address."""
+    on_device = cuda.to_device(table)
+    return on_device, int(on_device.device_ctypes_pointer.value)
 
 
 def _copy_back(device: dict[str, object], host: dict[str, np.ndarray]) -> None:
@@ -279,22 +312,23 @@ def _copy_back(device: dict[str, object], host: dict[str, np.ndarray]) -> None:
         device[name].copy_to_host(a)
 
 
-def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, status, valid, steps,
-                        last, acc, keep, stride, kept, kept_t, kept_count) -> None:
+def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, events, found, fault,
+                        status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count) -> None:
     """``kernels.fixed_step_ensemble`` on the GPU, for the fixed-step kernel ``advance`` (a
     ``@njit`` function, not a method's name); the outputs are written to the host arrays given."""
     targets.enable_cuda()
     inputs = _to_device({"y0": y0, "times": times, "substeps": substeps, "case": case, "shared": shared, "applies": applies,
                          "forces": forces, "keep": keep})
-    outputs = {"status": status, "valid": valid, "steps": steps, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
-               "kept_count": kept_count}
+    outputs = {"found": found, "fault": fault, "status": status, "valid": valid, "steps": steps, "last": last, "acc": acc, "kept": kept,
+               "kept_t": kept_t, "kept_count": kept_count}
     out = _to_device(outputs)
-    device_model, table_in_use = _model_to_device(model)  # (the table lives until the results are copied back)
+    device_model, table_in_use = _model_to_device(model)  # (the tables live until the results are copied back)
+    device_events, events_table_in_use = _events_to_device(events)
     with _compiling():
-        _fixed_step_kernel(advance)[blocks(y0.shape[0]), THREADS](
+        _fixed_step_kernel(advance, found.shape[1])[blocks(y0.shape[0]), THREADS](
             inputs["y0"], inputs["times"], inputs["substeps"], max_steps, device_model, _tuple_to_device(extra),
-            inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["steps"],
-            out["last"], out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
+            inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], device_events, out["found"], out["fault"], out["status"],
+            out["valid"], out["steps"], out["last"], out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     _copy_back(out, outputs)
 
 
@@ -305,23 +339,25 @@ def cases_per_batch(cases: int, samples: int) -> int:
     return max(1, min(cases, int(free * MEMORY_FRACTION) // (samples * STATE_SIZE * 8)))
 
 
-def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, clocks, case, shared, applies, forces, status, valid,
-                    last, acc, keep, stride, kept, kept_t, kept_count) -> None:
+def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, counters, clocks, case, shared, applies, forces, events, found, fault,
+                    status, valid, last, acc, keep, stride, kept, kept_t, kept_count) -> None:
     """``kernels.dop853_ensemble`` on the GPU (the outputs written to the host arrays given)."""
     targets.enable_cuda()
     inputs = _to_device({"y0": y0, "times": times, "case": case, "shared": shared, "applies": applies, "forces": forces, "keep": keep})
-    outputs = {"counters": counters, "clocks": clocks, "status": status, "valid": valid, "last": last, "acc": acc, "kept": kept, "kept_t": kept_t,
-               "kept_count": kept_count}
+    outputs = {"counters": counters, "clocks": clocks, "found": found, "fault": fault, "status": status, "valid": valid, "last": last,
+               "acc": acc, "kept": kept, "kept_t": kept_t, "kept_count": kept_count}
     out = _to_device(outputs)
     device_model, table_in_use = _model_to_device(model)  # (as ``fixed_step_ensemble``)
+    device_events, events_table_in_use = _events_to_device(events)
     b, n = y0.shape[0], times.shape[0]
     batch = cases_per_batch(b, n)
     grid = cuda.device_array((batch, n, STATE_SIZE))
+    kernel = _dop853_kernel(found.shape[1])
     with _compiling():
         for first in range(0, b, batch):
-            _dop853_kernel[blocks(min(batch, b - first)), THREADS](
+            kernel[blocks(min(batch, b - first)), THREADS](
                 first, inputs["y0"], inputs["times"], grid, rtol, atol, max_steps, chunk, device_model, out["counters"], out["clocks"],
-                inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], out["status"], out["valid"], out["last"],
-                out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
+                inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], device_events, out["found"], out["fault"],
+                out["status"], out["valid"], out["last"], out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])
     del grid
     _copy_back(out, outputs)

@@ -264,6 +264,12 @@ def scan_whole(method, solver, model, events, times, rows, i, code, found, fault
     return scan_events(method, solver, model, events, times, rows, i, found, fault, watch)
 
 
+@njit(cache=True)
+def scan_dop853(solver, model, events, times, rows, i, code, found, fault, watch):
+    """``scan_whole`` of a ``dop853`` case (``solver``: rtol, atol, max_steps)."""
+    return scan_whole("dop853", solver, model, events, times, rows, i, code, found, fault, watch)
+
+
 @njit(cache=True, parallel=True)
 def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions, grids, counters, clocks, case, shared, applies, forces, events, found, fault,
                     status, valid, last, acc, keep, stride, kept, kept_t, kept_count):
@@ -275,7 +281,7 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions,
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
             code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted, clock)
-            i = scan_whole("dop853", solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
+            i = scan_dop853(solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
         store_row(counters, b, counted)
         store_row(clocks, b, clock)
         report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,

@@ -1,6 +1,6 @@
 """A method's compiled calls inside the ensemble kernels, the method named by a literal string
-(``numba.literally``): a kernel passed as an argument would be a function pointer, which numba
-cannot cache.
+(``numba.literally``; the CPU's kernels, cached on disk), or, in a GPU's kernels (compiled per
+process), by its fixed-step kernel itself (an ``@njit`` function).
 
     advance_of(method, y, times, rows, i, substeps, budget, model, extra)
         a fixed-step method's kernel (``rotlab.methods.fixed_step``), called with ``*extra``
@@ -14,9 +14,9 @@ cannot cache.
 from __future__ import annotations
 
 from numba import types
-from numba.extending import overload
 
 from rotlab.core.dynamics import store_vector
+from rotlab.core.targets import overload
 
 
 def advance_of(method, y, times, rows, i, substeps, budget, model, extra):
@@ -45,6 +45,8 @@ def local_state(method, solver, model, y0, t0, t1, scratch):
 
 @overload(local_state)
 def _local_state(method, solver, model, y0, t0, t1, scratch):
+    if isinstance(method, types.Dispatcher):  # a fixed-step method's kernel (a GPU's)
+        return _fixed_step_local(method.dispatcher)
     if not isinstance(method, types.StringLiteral):
         return None
     name = method.literal_value
@@ -67,11 +69,18 @@ def _local_state(method, solver, model, y0, t0, t1, scratch):
                          scratch.counters)
 
         return taylor
+    from rotlab.methods.registry import get_method
 
-    def fixed_step(method, solver, model, y0, t0, t1, scratch):  # the run's substeps over [t0, t1] (``FixedStep.local_solution``)
+    return _fixed_step_local(get_method(name).kernel)
+
+
+def _fixed_step_local(advance):
+    """``local_state`` of the fixed-step kernel ``advance``: the run's substeps over [t0, t1]
+    (``FixedStep.local_solution``)."""
+    def fixed_step(method, solver, model, y0, t0, t1, scratch):
         store_vector(scratch.y, y0)
         scratch.grid[0], scratch.grid[1] = t0, t1
         substeps, extra = solver
-        advance_of(method, scratch.y, scratch.grid, scratch.out, 1, substeps, substeps, model, extra)
+        advance(scratch.y, scratch.grid, scratch.out, 1, substeps, substeps, model, *extra)
 
     return fixed_step

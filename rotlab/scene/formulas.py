@@ -21,7 +21,7 @@ from typing import Any
 
 from rotlab.core import opcodes as op
 
-Program = list[tuple[int, float]]
+Program = op.Program
 
 _UNARY = {op.SIN: "math.sin", op.COS: "math.cos", op.TAN: "math.tan", op.EXP: "math.exp", op.LOG: "safe_log",
           op.SQRT: "safe_sqrt", op.ABS: "abs", op.TANH: "math.tanh", op.SIGN: "sign"}

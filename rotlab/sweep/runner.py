@@ -229,7 +229,7 @@ def ensemble_plan_or_why(p: SweepPlan, device: str = "cpu") -> EnsemblePlan | st
     (``rotlab.ensemble.block.unsupported_scene``)."""
     if not initial_only(p.base.sweep.parameters):
         return "only initial conditions may vary (the cases share one body, loads and method)"
-    from rotlab.ensemble.block import GPU_METHODS, has_ensemble_kernel, unsupported_on_gpu, unsupported_scene, unsupported_scene_on_gpu
+    from rotlab.ensemble.block import GPU_METHODS, has_ensemble_kernel, unsupported_on_gpu, unsupported_scene
     from rotlab.methods.base import Settings
     from rotlab.methods.registry import get_method
     from rotlab.scene.scene import build_scene
@@ -248,7 +248,7 @@ def ensemble_plan_or_why(p: SweepPlan, device: str = "cpu") -> EnsemblePlan | st
             return f"auto chose {choice.label}, which has no GPU kernel: give solver.method, one of {', '.join(GPU_METHODS)}"
     else:
         method, settings, why = get_method(solver.method), Settings.of(solver), "as the file asks"
-    refusal = (unsupported_on_gpu(method) or unsupported_scene_on_gpu(scene) if device == "cuda" else None) \
+    refusal = (unsupported_on_gpu(method) if device == "cuda" else None) \
         or (None if has_ensemble_kernel(method) else f"method {method.name!r} has no ensemble kernel") or unsupported_scene(scene) \
         or method.unsupported(scene)
     if refusal is not None:
