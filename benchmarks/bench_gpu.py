@@ -128,12 +128,13 @@ def cpu_alone(kind: str, y0, times, substeps, model, extra, case, shared, applie
         rows[0] = y
         counted = np.zeros(3, dtype=np.int64)
         if kind == "dop853":
-            code, i = dop853_case(y, times, rows, RTOL, ATOL, MAX_STEPS, 1 << 18, model, counted, np.zeros(3))
+            code, i = dop853_case(y, times, rows, RTOL, ATOL, MAX_STEPS, 1 << 18, model, counted, np.zeros(3), None, out.found[k],
+                                  out.fault[k], None)
         else:
             advance = dmv_advance if kind == "dmv" else rk4_advance
             code, i, counted[0] = advance(y, times, rows, 1, substeps, MAX_STEPS, model, *extra)
         report_whole(k, code, i, rows, times, case, shared, applies, forces, out.status, out.valid, out.last, out.acc, out.keep, 1,
-                     out.kept, out.kept_t, out.kept_count, np.zeros(ob.ACC_COLUMNS), np.zeros(1, dtype=np.int64))
+                     out.kept, out.kept_t, out.kept_count, np.zeros(ob.ACC_COLUMNS), np.zeros(1, dtype=np.int64), None, out.fault[k])
         out.steps[k] = counted[0]
     return out.last, out.acc, out.steps
 

@@ -197,7 +197,7 @@ class EventWatch:
             found.states.append(y[:7].copy())
             if spec.terminal and len(found.t) == spec.count:
                 self.final = (when, y)
-                self.ended_by = f"event '{spec.name}' (occurrence {spec.count}) at t = {when:.12g} s"
+                self.ended_by = ended_by_message(spec, when)
                 return Stop(row)
         return None
 
@@ -243,6 +243,11 @@ class EventWatch:
 def observable_names(events: list[Event]) -> list[str]:
     """The columns a sweep reports for ``events`` (``observables``)."""
     return [f"event_{e.name}_{what}" for e in events for what in OBSERVED]
+
+
+def ended_by_message(spec: Event, t: float) -> str:
+    """A run that terminal event ``spec`` ended at t (its ``count``-th occurrence)."""
+    return f"event '{spec.name}' (occurrence {spec.count}) at t = {t:.12g} s"
 
 
 def not_finite_message(spec: Event, component: int, t: float) -> str:

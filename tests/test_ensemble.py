@@ -272,6 +272,38 @@ def test_events_in_the_ensemble_are_those_of_each_case_run_alone(method, changes
         assert block.failure[k] is None and np.array_equal(states, traj._state)
 
 
+@pytest.mark.parametrize("method, changes", EVENT_METHODS, ids=[m for m, _ in EVENT_METHODS])
+def test_a_terminal_event_ends_each_case_as_it_ends_its_single_run(method, changes):
+    """A terminal event (the second flip, each case at its own time, beside a counting event) ends
+    each case as it ends its run alone: the same samples kept and the state at the event last, bit
+    for bit; the same steps (the same calls: ``WATCHED_STEPS``); the same events, observables
+    (flip period and nutation to 1e-13 relative, drifts to 1e-15) and "ended by"."""
+    from rotlab.events import observables
+
+    events = [{"name": "flip", "when": "omega[1]", "direction": "falling", "terminal": True, "count": 2},
+              {"name": "cross", "when": "omega[0]"}]
+    scenes, block, alone = _event_block(method, changes, events, end=40.0)
+    report = outcomes_of([(Case(k, {}), traj, 0.0) for k, traj in enumerate(alone)])
+    ends = set()
+    for k, (traj, outcome) in enumerate(zip(alone, report)):
+        kept_t, states = block.kept[k]
+        assert traj.stats.failure is None and block.failure[k] is None and block.status[k] == 0
+        assert np.array_equal(kept_t, traj.t) and np.array_equal(states, traj._state)
+        assert block.valid[k] == traj.t.shape[0] < scenes[k].scenario.time.sample_times().shape[0]
+        assert traj.t[-1] == block.events["event_flip_first_s"][k] + block.events["event_flip_interval_s"][k] or traj.events["flip"].count == 2
+        assert block.steps[k] == traj.stats.steps and block.details[k]["ended by"] == traj.stats.details["ended by"]
+        for column, value in observables(traj.events).items():
+            ours = float(block.events[column][k])
+            assert ours == value or (math.isnan(ours) and math.isnan(value)), column
+        for name, ours in (("flip_period_s", block.flip_period[k]), ("max_nutation_deg", block.max_nutation_deg[k])):
+            theirs = outcome.observables[name]
+            assert (np.isnan(ours) and np.isnan(theirs)) or abs(ours - theirs) <= 1e-13 * abs(theirs), name
+        for name, value in outcome.drift.items():
+            assert abs(block.max_drift[name][k] - value) <= 1e-15, name
+        ends.add(float(traj.t[-1]))
+    assert len(ends) == len(alone)  # each case ended at its own time
+
+
 FAULTS = {  # events whose formula is not finite somewhere: the case stops there, as its single run
     "at a sample": [{"name": "flip", "when": "omega[1]"}, {"name": "s", "when": "sqrt(2.3 - t) - 0.1"}],
     "in a record": [{"name": "flip", "when": "omega[1]", "record": ["log(t - 5)"]}],
@@ -291,6 +323,7 @@ def test_an_event_formula_that_is_not_finite_stops_the_case_as_it_stops_its_sing
     for k, traj in enumerate(alone):
         assert traj.stats.failure is not None and block.failure[k] == traj.stats.failure
         assert block.valid[k] == traj.t.shape[0] < scenes[k].scenario.time.sample_times().shape[0]
+        assert block.steps[k] == traj.stats.steps  # (the same calls of its kernel: it stops after the same one)
         kept_t, states = block.kept[k]
         assert np.array_equal(kept_t, traj.t) and np.array_equal(states, traj._state)
         for column, value in observables(traj.events).items():
@@ -298,7 +331,7 @@ def test_an_event_formula_that_is_not_finite_stops_the_case_as_it_stops_its_sing
             assert ours == value or (math.isnan(ours) and math.isnan(value)), column
 
 
-def test_a_sweep_with_events_runs_in_the_ensemble_kernels_on_either_device_but_not_with_a_terminal_event(write):
+def test_a_sweep_with_events_runs_in_the_ensemble_kernels_on_either_device_terminal_events_too(write):
     from rotlab.sweep.runner import ensemble_plan_or_why
 
     text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 10.0, 0.01]\n[time]\nend = 8.0\n'
@@ -309,7 +342,9 @@ def test_a_sweep_with_events_runs_in_the_ensemble_kernels_on_either_device_but_n
     assert run.how.startswith("ensemble kernels (rk4") and all(o.observables["event_flip_count"] >= 1 for o in run.outcomes)
     assert ensemble_plan_or_why(p, "cuda").device == "cuda"
     terminal = plan(write("t.toml", text + "terminal = true\n"))
-    assert ensemble_plan_or_why(terminal) == "a terminal event ends each case at its own time: its cases run one by one"
+    assert ensemble_plan_or_why(terminal).method_name == "rk4"
+    ended = run_cases(terminal)
+    assert ended.how.startswith("ensemble kernels (rk4") and all(o.observables["event_flip_count"] == 1 for o in ended.outcomes)
 
 
 @pytest.mark.parametrize("method, changes", [("rk4", {"step": 1e-3}), ("dop853", {})], ids=["rk4", "dop853"])

@@ -99,8 +99,9 @@ def test_a_case_that_blows_up_on_the_gpu_stops_where_it_does_on_the_cpu():
 def test_events_on_the_gpu_are_the_cpu_ensembles_bit_for_bit():
     """A scene's events on the (simulated) GPU, rk4 and dop853: located (two events, one with
     ``record`` formulas), a ``when`` that turns non-finite mid-run, a ``record`` formula that is
-    not finite at its event, a ``when`` not finite at the first sample: every event column, the
-    samples made and the failure messages ``np.array_equal`` to the CPU ensemble's."""
+    not finite at its event, a ``when`` not finite at the first sample, a terminal event: every
+    event column, the samples made, the last states, the kept samples (a terminal event's state
+    last) and the failure messages ``np.array_equal`` to the CPU ensemble's."""
     result = _python("""
         import numpy as np
         from rotlab.ensemble.block import run_block
@@ -113,7 +114,9 @@ def test_events_on_the_gpu_are_the_cpu_ensembles_bit_for_bit():
                 "when stops": [{"name": "flip", "when": "omega[1]", "direction": "falling"},
                                {"name": "late", "when": "sqrt(omega[0] + 1.0 - t) - 10", "direction": "both"}],
                 "record stops": [{"name": "flip", "when": "omega[1]", "direction": "falling", "record": ["log(1.3 - t)"]}],
-                "first sample": [{"name": "never", "when": "log(-omega[1])"}]}
+                "first sample": [{"name": "never", "when": "log(-omega[1])"}],
+                "terminal": [{"name": "flip", "when": "omega[1]", "direction": "falling", "terminal": True},
+                             {"name": "cross", "when": "omega[0]"}]}
         for method, changes in (("rk4", {"step": 1e-3}), ("dop853", {})):
             for name, events in SETS.items():
                 scenes = _scenes("sweep_flip.toml", 3.0, method, changes, events=events)
@@ -123,13 +126,16 @@ def test_events_on_the_gpu_are_the_cpu_ensembles_bit_for_bit():
                 assert cpu.events.keys() == cuda.events.keys() and len(cpu.events) == 3 * len(events)
                 assert all(np.array_equal(cpu.events[k], cuda.events[k], equal_nan=True) for k in cpu.events), name
                 assert np.array_equal(cpu.valid, cuda.valid) and cpu.failure == cuda.failure, name
+                assert np.array_equal(cpu.last, cuda.last) and np.array_equal(cpu.status, cuda.status), name
+                assert all(np.array_equal(cpu.kept[k][j], cuda.kept[k][j]) for k in (0, 4) for j in (0, 1)), name
                 stopped = sum(f is not None for f in cuda.failure)
-                assert stopped == {"located": 0, "when stops": 5, "record stops": 3, "first sample": 5}[name], (name, cuda.failure)
+                assert stopped == {"located": 0, "when stops": 5, "record stops": 3, "first sample": 5, "terminal": 0}[name], (name, cuda.failure)
+                assert name != "terminal" or (np.all(cuda.valid < t.shape[0]) and [d["ended by"] for d in cuda.details] == [d["ended by"] for d in cpu.details])
                 assert name != "located" or np.all(cuda.events["event_flip_count"] == 1)
                 print(method, name, "identical")
     """, SIMULATOR)
     assert result.returncode == 0, result.stderr[-3000:]
-    assert result.stdout.count("identical") == 8
+    assert result.stdout.count("identical") == 10
 
 
 def _small_sweep(tmp_path: Path, extra: str = "") -> Path:

@@ -26,6 +26,10 @@ STALLED = 4  # an adaptive run's pace cannot reach its end (``stall_needs``; its
 NORM2_MIN, NORM2_MAX = sys.float_info.min, sys.float_info.max  # |Λ|² outside [DBL_MIN, DBL_MAX]: Λ/|Λ| is not computable
 STALL_FACTOR = 10  # an adaptive run whose pace needs this many times the steps it has left stops (``stall_needs``)
 WINDOW = 1 << 14  # samples per window when streaming (8 doubles each: 1 MB)
+CHUNK_STEPS = 1 << 18  # steps per kernel call of a run (``rotlab.methods.stepping.run_chunks``)
+# steps per kernel call while a watch that may end the run sees the rows (a terminal event): the run
+# ends at most this many steps past it; a call's budget ends between two steps, so the steps are the same
+WATCHED_STEPS = 1 << 12
 
 
 @njit(cache=True, forceinline=True)

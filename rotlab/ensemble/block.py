@@ -26,7 +26,7 @@ from rotlab.core.kernel_status import ATTITUDE_LOST, NONFINITE, OK, STALLED
 from rotlab.ensemble import observe as ob
 from rotlab.ensemble.cross_check import GpuDisagreement, checked_cases, disagreement, library_calls
 from rotlab.ensemble.event_scan import BETWEEN_FAULT, FAULT_COLUMNS, FAULT_EVENT, FAULT_FORMULA, FAULT_KIND, FAULT_T0, FAULT_T1, \
-    FOUND_COLUMNS, NO_FAULT, EventInputs
+    FOUND_COLUMNS, NO_FAULT, TERMINAL, EventInputs
 from rotlab.errors import InputError, RunFailure, first_line
 from rotlab.methods.base import Settings
 from rotlab.methods.stepping import CHUNK_STEPS, budget_message, stall_message, state_failure_after, step_floor_message
@@ -77,14 +77,11 @@ def has_ensemble_kernel(method: object) -> bool:
 
 def unsupported_scene(scene: Scene) -> str | None:
     """Why ``scene`` cannot run in a parallel ensemble kernel (None when it can): a Python
-    ``torque=`` function is not compiled into it, driven rotors add state columns, and a terminal
-    event ends each case at its own time."""
+    ``torque=`` function is not compiled into it, and driven rotors add state columns."""
     if scene.loads.user is not None:
         return "a Python torque function cannot run in the parallel ensemble kernel"
     if scene.loads.drives is not None:
         return "a driven rotor's momentum is a state column the ensemble kernels do not carry"
-    if any(event.terminal for event in scene.scenario.events):
-        return "a terminal event ends each case at its own time: its cases run one by one"
     return None
 
 
@@ -163,8 +160,16 @@ def event_inputs(scene: Scene) -> tuple[EventInputs | None, CompiledEvents | Non
         rates_only[k, :len(flags)] = flags
     return EventInputs(compiled.fn, compiled.rows, compiled.axes, compiled.axes_q, compiled.moments,
                        np.array([DIRECTIONS[spec.direction] for spec in specs], dtype=np.int64),
-                       np.array([len(spec.record) for spec in specs], dtype=np.int64), rates_only, formula_table(compiled.programs),
+                       np.array([len(spec.record) for spec in specs], dtype=np.int64), rates_only,
+                       np.array([spec.count if spec.terminal else 0 for spec in specs], dtype=np.int64), formula_table(compiled.programs),
                        compiled.depth), compiled
+
+
+def ended_by(compiled: CompiledEvents, fault: np.ndarray) -> str:
+    """What ended a case a terminal event stopped (``fault``): its single run's words."""
+    from rotlab.events import ended_by_message
+
+    return ended_by_message(compiled.specs[int(fault[FAULT_EVENT])], float(fault[FAULT_T0]))
 
 
 def event_failure(compiled: CompiledEvents, fault: np.ndarray) -> str:
@@ -297,7 +302,10 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
     for k in range(b):
         if failure[k] is not None:
             continue
-        if fault[k, FAULT_KIND] != NO_FAULT:  # (before a non-finite state: the event's formula stopped the case first)
+        if fault[k, FAULT_KIND] == TERMINAL:  # its last sample is the state at the event (its rows after, made in the same call, are not)
+            status[k] = OK
+            details[k] = {**details[k], "ended by": ended_by(compiled, fault[k])}
+        elif fault[k, FAULT_KIND] != NO_FAULT:  # (before a non-finite state: the event's formula stopped the case first)
             failure[k] = event_failure(compiled, fault[k])
         elif status[k] in (NONFINITE, ATTITUDE_LOST):
             formula = _formula_fault(method, scenes[k], t, settings) if status[k] == NONFINITE else None

@@ -5,17 +5,20 @@ the same stops — and reduced to what a sweep reports of them: per event the nu
 occurrences and the first and last times (``rotlab.events.observed``).
 
 A case stops where an event's formula is not finite, as its single run does, keeping the rows
-before: ``scan_events`` returns that row and writes ``fault`` (``FAULT_*``; the message is
-``rotlab.events``'): kind, event, formula (0: ``when``, j + 1: ``record[j]``), t0, t1 —
+before, and where a terminal event occurs for the ``count``-th time, keeping the rows before and
+ending with the state at the event: ``scan_events`` returns that row and writes ``fault``
+(``FAULT_*``; a fault's message is ``rotlab.events``'): kind, event, formula (0: ``when``,
+j + 1: ``record[j]``), t0, t1 —
 
     AT_SAMPLE_FAULT   a formula not finite at the sample t0 (= t1)
     BETWEEN_FAULT     ``when`` not finite on the local solution in (t0, t1]
     RECORD_FAULT      a ``record`` formula not finite at the event, t0 (= t1) its time
+    TERMINAL          not a fault: a terminal event ended the case at t0 (= t1), its state in the
+                      scratch's ``y`` (``case_end``)
 
-Terminal events are not taken here (``rotlab.ensemble.block.unsupported_scene``).  A case that
-an event's formula stops reports the steps its kernel took, as its single run does; a fixed-step
-kernel's calls end every ``kernels.WINDOW`` samples, a single run's every ``kernel_status.WINDOW``,
-so past the first 4,096 samples the two counts of such a case may differ (its samples do not).
+The kernels scan a case's rows after each call of its method's kernel, in the calls its single run
+makes (``rotlab.methods.stepping.run_chunks``: ``chunk_steps``), so that a case an event stops
+takes the steps its single run takes.
 """
 
 from __future__ import annotations
@@ -26,17 +29,19 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, types
 
-from rotlab.core.dynamics import STATE_SIZE
+from rotlab.core.dynamics import STATE_SIZE, store_row
 from rotlab.core.event_root import AT_SAMPLE, NOT_FINITE, PENDING, POLE, ROOT_STATE, locate_next, locate_start, time_tolerance
 from rotlab.core.event_values import crosses, formula_value, formula_values
+from rotlab.core.kernel_status import OK, WATCHED_STEPS, first_invalid_row
 from rotlab.core.targets import gpu_overload
 from rotlab.ensemble.method_calls import local_state
+from rotlab.ensemble.observe import observe_rows
 
 FOUND_COUNT, FOUND_FIRST, FOUND_LAST = 0, 1, 2  # columns of a case's ``found`` row per event
 FOUND_COLUMNS = 3
 FAULT_KIND, FAULT_EVENT, FAULT_FORMULA, FAULT_T0, FAULT_T1 = 0, 1, 2, 3, 4
 FAULT_COLUMNS = 5
-NO_FAULT, AT_SAMPLE_FAULT, BETWEEN_FAULT, RECORD_FAULT = 0, 1, 2, 3
+NO_FAULT, AT_SAMPLE_FAULT, BETWEEN_FAULT, RECORD_FAULT, TERMINAL = 0, 1, 2, 3, 4
 BLOCK = 512  # rows whose ``when`` values are evaluated together (``scan_events``; a GPU's thread: one, ``device_event_scratch``)
 
 
@@ -53,6 +58,7 @@ class EventInputs(NamedTuple):
     direction: np.ndarray  # (E,) int64: RISING / FALLING bits
     records: np.ndarray  # (E,) int64: number of ``record`` formulas
     rates_only: np.ndarray  # (E, 1 + max records) bool: the formula reads only t and ω
+    terminal: np.ndarray  # (E,) int64: the occurrence that ends the case (``count``), 0: not terminal
     table: np.ndarray  # the formulas' ``rotlab.core.formula_table`` (a GPU's ``fn``: ``rotlab.ensemble.gpu``)
     depth: int  # the deepest formula's stack
 
@@ -154,13 +160,13 @@ def scan_events(method, solver, model, events, times, rows, stop, found, fault, 
     """The events of one case in its rows ``1 … stop − 1`` (at ``times``; row 0 the last one
     seen, ``open_events`` or the last scan's): each occurrence counted in ``found``
     (E, FOUND_COLUMNS), in time order within an interval.  Returns ``stop``, or the row where an
-    event's formula stopped the case (its rows before are valid; ``fault`` says why: module
-    docstring).  Each ``when`` is evaluated on ``BLOCK`` rows at a time (``s.values``' width) by ``formula_values``, the
+    event's formula or a terminal event stopped the case (its rows before are valid; ``fault``
+    says why: module docstring).  Each ``when`` is evaluated on ``BLOCK`` rows at a time (``s.values``' width) by ``formula_values``, the
     single run's loop (its rows' loop compiles for what the formula reads: ~7 ns a row, where a
     test per row and event of what it reads cost ~60)."""
     if events is None:
         return stop
-    fn, ex_rows, axes, axes_q, moments, direction, _, rates_only, _, _ = events
+    fn, ex_rows, axes, axes_q, moments, direction, _, rates_only, _, _, _ = events
     g, g_now, values = s.g, s.g_now, s.values
     for r0 in range(1, stop, values.shape[1]):
         r1 = min(stop, r0 + values.shape[1])
@@ -187,7 +193,8 @@ def scan_events(method, solver, model, events, times, rows, stop, found, fault, 
 @njit(cache=True)
 def _interval(method, solver, model, events, times, rows, r, found, fault, s):
     """The occurrences in the interval that ends at row ``r``, located (``_locate``) and counted
-    in time order (ties: in the events' order); False where an event's formula stopped the case."""
+    in time order (ties: in the events' order); False where an event's formula or a terminal
+    event stopped the case."""
     t0, t1 = times[r - 1], times[r]
     for k in range(s.g.shape[0]):
         s.verdict[k] = -1
@@ -216,3 +223,45 @@ def _interval(method, solver, model, events, times, rows, r, found, fault, s):
             found[k, FOUND_FIRST] = s.when[k]
         found[k, FOUND_LAST] = s.when[k]
         found[k, FOUND_COUNT] += 1.0
+        if found[k, FOUND_COUNT] == events.terminal[k]:  # the case ends with the state at the event (``EventWatch._interval``)
+            if events.records[k] == 0:
+                local_state(method, solver, model, rows[r - 1], t0, t0 + s.tau[k], s)
+            _fault(fault, TERMINAL, k, 0, s.when[k], s.when[k])
+            return False
+
+
+@njit(cache=True)
+def chunk_steps(events, chunk):
+    """The steps a case's method takes per call, as its single run's (``run_chunks``): ``chunk``,
+    or ``WATCHED_STEPS`` where a terminal event may end the case."""
+    if events is None:
+        return chunk
+    for k in range(events.terminal.shape[0]):
+        if events.terminal[k] > 0:
+            return WATCHED_STEPS
+    return chunk
+
+
+@njit(cache=True)
+def scan_call(method, solver, model, events, times, rows, i, made, code, found, fault, s):
+    """The events in the rows [i, made) of a call of the case's kernel (``code`` its status: its
+    valid rows only; row i − 1 the last one seen), by ``scan_events``: the end of the rows that
+    stand (``made``, or the row where an event stopped the case)."""
+    if code != OK:
+        made = first_invalid_row(rows, i, made)
+    return i - 1 + scan_events(method, solver, model, events, times[i - 1:made], rows[i - 1:made], made - i + 1, found, fault, s)
+
+
+@njit(cache=True)
+def case_end(s, fault, y, t, samples, constants, forces, folded):
+    """(last state, its time, samples) of a case whose last sample is ``y`` at t, the ``samples``-th:
+    or, where a terminal event ended it (``fault``), the state at the event (``s.y``), which
+    becomes its last sample and is folded into its observables (``folded``)."""
+    if s is None:
+        return y, t, samples
+    if fault[FAULT_KIND] != TERMINAL:
+        return y, t, samples
+    s.grid[1] = fault[FAULT_T0]
+    store_row(s.out, 1, s.y)
+    observe_rows(s.grid, s.out, 1, 2, False, constants, forces, folded)
+    return s.y, s.grid[1], samples + 1

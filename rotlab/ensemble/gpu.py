@@ -8,7 +8,8 @@ either device.
 
 * Fixed-step methods call their kernel once per sample interval (a fixed step starts each
   interval afresh, so the calls change no bit) on two rows of the thread's local memory: a case
-  costs no device memory whatever its length.
+  costs no device memory whatever its length.  A case that an event stops reports the steps to
+  that interval (the CPU's, as its single run, those of the call the event falls in).
 * ``dop853`` steps across samples and stops at the windows of its single run
   (``kernel_status.WINDOW``), as the CPU ensemble does (``kernels.dop853_case``): each case's
   whole sample grid lives in device memory, (n, 8) doubles, and the cases run in batches that fit
@@ -41,8 +42,8 @@ from rotlab.core.formula_table import model_formula_table
 from rotlab.core.kernel_status import OK
 from rotlab.core.model import Model
 from rotlab.errors import RunFailure, first_line
-from rotlab.ensemble.event_scan import EventInputs, device_event_scratch, open_events, scan_events
-from rotlab.ensemble.kernels import dop853_case, keep_samples, report_fixed_step, report_whole, scan_dop853
+from rotlab.ensemble.event_scan import EventInputs, case_end, device_event_scratch, open_events, scan_events
+from rotlab.ensemble.kernels import dop853_case, keep_samples, report_fixed_step, report_whole
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 
 THREADS = 64  # threads per block: the steppers keep their stages in registers and local memory
@@ -194,13 +195,14 @@ def _fixed_step_kernel(advance, events_count: int):
             if code != OK or j == 1:  # non-finite (nothing stored), or the step budget cannot reach the sample
                 break
             if scan_events(advance, (substeps[b], extra), model, events, times[i - 1:i + 1], rows, 2, found[b], fault[b], watch) == 1:
-                break  # an event's formula is not finite: the case ends before this sample
+                break  # an event's formula is not finite, or a terminal event occurred: the case ends before this sample
             observe_rows(times[i - 1:i + 1], rows, 1, 2, False, constants, forces, folded)
             if keep[b] >= 0:
                 keep_samples(rows, times[i - 1:i + 1], 1, 2, i - 1, stride, kept[keep[b]], kept_t[keep[b]], count)
             store_row(rows, 0, rows[1])
             i += 1
-        report_fixed_step(b, code, i, taken, rows[0], times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,
+        y_end, t_end, samples = case_end(watch, fault[b], rows[0], times[i - 1], i, constants, forces, folded)
+        report_fixed_step(b, code, samples, taken, y_end, t_end, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,
                           kept_count)
 
     kernel = _FIXED[(advance, events_count)] = _jit(fixed_step)
@@ -233,12 +235,11 @@ def _dop853_kernel(events_count: int):
         store_row(rows, 0, y)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
-            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock)
-            i = scan_dop853((rtol, atol, max_steps), model, events, times, rows, i, code, found[b], fault[b], watch)
+            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock, events, found[b], fault[b], watch)
         store_row(counters, b, counted)
         store_row(clocks, b, clock)
         report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
-                     kept_count, folded, count)
+                     kept_count, folded, count, watch, fault[b])
 
     kernel = _DOP853[events_count] = _jit(dop853)
     return kernel

@@ -3,16 +3,20 @@ each case is the method's own kernel run as a single run calls it, its observabl
 its samples are made (``rotlab.ensemble.observe``), and only the samples of the cases asked for
 kept (every ``stride``-th and the last valid one).
 
-A case's events (``rotlab.ensemble.event_scan``) are found in its rows before they are observed:
-an event's formula that is not finite ends the case there, as it ends its single run.
+Each case's method is called as its single run calls it (``rotlab.methods.stepping.run_chunks``):
+on the same windows of ``kernel_status.WINDOW`` samples (an adaptive step ends at a window's last
+sample), in calls of the same step budgets (``CHUNK_STEPS``; ``WATCHED_STEPS`` where a terminal
+event may end the case), so a case takes its single run's steps wherever it stops.  After each
+call its events (``rotlab.ensemble.event_scan``) are found in the new rows before they are
+observed: an event's formula that is not finite ends the case there, and a terminal event at its
+``count``-th occurrence, the state at the event its last sample, as each ends its single run.
 
 Fixed-step methods (``advance(y, times, out, i, substeps, max_steps, model, *extra)``, see
 ``rotlab.methods.fixed_step``), named by a string the kernel is compiled for
-(``rotlab.ensemble.method_calls``), run in windows of ``WINDOW`` samples: a fixed step starts each
-sample interval afresh, so the windows change no bit, and a case needs WINDOW rows of memory
-whatever its length.  ``dop853`` and ``taylor`` run over the whole sample grid, as a single run
-does (their steps straddle samples and stop at the grid's end: a window would change them), so
-a case holds its N rows while it runs.
+(``rotlab.ensemble.method_calls``), hold one window of rows a case (``thread_grids``): a fixed step
+starts each sample interval afresh, so the windows change no bit, and a case needs WINDOW + 1 rows
+of memory whatever its length.  ``dop853`` and ``taylor`` run over the whole sample grid, as a
+single run does, so a case holds its N rows while it runs.
 """
 
 from __future__ import annotations
@@ -24,13 +28,12 @@ from numba.extending import overload
 from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
-from rotlab.core.kernel_status import OK, STALLED, first_invalid_row, pace_judged, stall_needs, WINDOW as RUN_WINDOW  # an adaptive case's windows: those of its single run
-from rotlab.ensemble.event_scan import event_scratch, open_events, scan_events
+from rotlab.core.kernel_status import CHUNK_STEPS, OK, STALLED, WINDOW, first_invalid_row, pace_judged, stall_needs
+from rotlab.ensemble.event_scan import case_end, chunk_steps, event_scratch, open_events, scan_call
 from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 from rotlab.core.model import Expressions, Model
 
-WINDOW = 4096  # samples per fixed-step kernel call within a case
 _ENTRIES: dict[tuple, object] = {}  # (method, argument types) → the compiled entry of ``fixed_step_ensemble``
 
 
@@ -125,7 +128,7 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, expressio
     ``kept[keep[b]]`` (``kept_count[b]`` rows) when ``keep[b] ≥ 0``; ``last[b]``: its last valid
     state; ``grids``: ``thread_grids(min(n, WINDOW + 1))``.  A case with ``substeps[b] ≤ 0`` is
     not run (its outputs are left as they are)."""
-    n = times.shape[0]
+    n, chunked = times.shape[0], chunk_steps(events, CHUNK_STEPS)
     for b in prange(y0.shape[0]):
         if substeps[b] <= 0:
             continue
@@ -141,34 +144,37 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, expressio
         count = np.zeros(1, dtype=np.int64)
         if keep[b] >= 0:
             keep_samples(rows, times, 0, 1, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
-        code, i, taken = OK, 1, 0
-        while i < n and opened == 1:
-            lo, hi = i - 1, min(n, i + WINDOW)
-            code, j, done = advance_of(literally(method), y, times[lo:hi], rows, 1, substeps[b], max_steps - taken, mine, extra)
+        code, i, taken, lo, hi, chunk = OK, 1, 0, 0, min(n, WINDOW + 1), chunked
+        while i < n and opened == 1:  # (its single run's calls: ``stepping.run_chunks``)
+            budget = min(chunk, max_steps - taken)
+            code, made, done = advance_of(literally(method), y, times[lo:hi], rows, i - lo, substeps[b], budget, mine, extra)
             taken += done
-            if code != OK:
-                j = first_invalid_row(rows, 1, j)
-            made = j
-            j = scan_events(literally(method), solver, mine, events, times[lo:hi], rows, j, found[b], fault[b], watch)
-            observe_rows(times[lo:hi], rows, 1, j, False, constants, forces, folded)
+            if code == OK and done == 0 and lo + made == i and budget == chunk < CHUNK_STEPS:  # a sample needs more: whole chunks
+                chunk = CHUNK_STEPS
+                continue
+            j = scan_call(literally(method), solver, mine, events, times[lo:hi], rows, i - lo, made, code, found[b], fault[b], watch)
+            observe_rows(times[lo:hi], rows, i - lo, j, False, constants, forces, folded)
             if keep[b] >= 0:
-                keep_samples(rows, times[lo:hi], 1, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
-            i = lo + j
-            store_row(rows, 0, rows[j - 1])
-            if code != OK or j == 1 or j < made:  # non-finite, the step budget cannot reach the next sample, or an event stopped it
+                keep_samples(rows, times[lo:hi], i - lo, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
+            if code != OK or lo + j == i or j < made:  # not finite, the step budget cannot reach the next sample, or an event stopped it
+                i = lo + j
                 break
-        report_fixed_step(b, code, i, taken, rows[0], times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,
-                          kept_count)
+            i = lo + j
+            if i == hi < n:  # window full: its last row starts the next one
+                store_row(rows, 0, rows[hi - lo - 1])
+                lo, hi = hi - 1, min(n, hi + WINDOW)
+        y, t, samples = case_end(watch, fault[b], rows[i - 1 - lo], times[i - 1], i, constants, forces, folded)
+        report_fixed_step(b, code, samples, taken, y, t, folded, count, status, valid, steps, last, acc, keep, kept, kept_t, kept_count)
 
 
 @njit(cache=True)
-def report_fixed_step(b, code, i, taken, y, times, folded, count, status, valid, steps, last, acc, keep, kept, kept_t, kept_count):
-    """Case b's report after a fixed-step run that made samples [0, i) with ``taken`` steps
-    (``code`` its status, ``y`` its last valid state, ``folded`` its observables, ``count`` the
-    samples kept so far): the last sample kept, and the outputs written."""
+def report_fixed_step(b, code, samples, taken, y, t, folded, count, status, valid, steps, last, acc, keep, kept, kept_t, kept_count):
+    """Case b's report after a fixed-step run that made ``samples`` samples with ``taken`` steps
+    (``code`` its status, ``y`` its last valid state, at t, ``folded`` its observables, ``count``
+    the samples kept so far): the last sample kept, and the outputs written."""
     if keep[b] >= 0:
-        _keep_last(y, times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
-    status[b], valid[b], steps[b] = code, i, taken
+        _keep_last(y, t, kept[keep[b]], kept_t[keep[b]], count)
+    status[b], valid[b], steps[b] = code, samples, taken
     store_row(last, b, y)
     store_row(acc, b, folded)
     kept_count[b] = count[0]
@@ -196,20 +202,25 @@ def _start_whole(y0, b, rows, model, expressions, counts):
 
 
 @njit(cache=True)
-def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock):
+def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock, events, found, fault, watch):
     """One ``dop853`` case from ``rows[0]`` = y over the sample grid ``times``, as its single run
-    steps (in calls of ``chunk`` attempts on ``stepping.run_chunks``'s windows: a step stops at a
-    window's end) and stops (``STALLED``: after a whole chunk whose pace cannot finish, as
-    ``run_chunks`` judges it): (status, samples made); ``counted``: accepted, rejected,
-    evaluations; ``clock``: the integrator's time, and a stalled chunk's start and steps."""
-    n = times.shape[0]
-    code, i, t, h, attempts, lo, hi = OK, 1, times[0], 0.0, 0, 0, min(n, RUN_WINDOW + 1)
+    steps (in calls of ``chunk`` attempts, ``chunk_steps``, on ``stepping.run_chunks``'s windows: a
+    step stops at a window's end) and stops (``STALLED``: after a whole chunk whose pace cannot
+    finish, as ``run_chunks`` judges it; or where its ``events`` stop it, ``event_scan``: found,
+    fault and watch its outputs and scratch): (status, samples made); ``counted``: accepted,
+    rejected, evaluations; ``clock``: the integrator's time, and a stalled chunk's start and steps."""
+    n, solver, chunk = times.shape[0], (rtol, atol, max_steps), chunk_steps(events, chunk)
+    code, i, t, h, attempts, lo, hi = OK, 1, times[0], 0.0, 0, 0, min(n, WINDOW + 1)
     while i < n and attempts < max_steps:
         before, start, budget = counted[0] + counted[1], t, min(chunk, max_steps - attempts)
         code, j, t, h = dop853_advance(y, t, h, times[lo:hi], rows[lo:hi], i - lo, times[hi - 1], rtol, atol, budget, model, counted)
-        i = lo + j
+        stop = scan_call("dop853", solver, model, events, times, rows, i, lo + j, code, found, fault, watch)
         taken = counted[0] + counted[1] - before
         attempts += taken
+        if stop < lo + j:  # an event stopped the case
+            i = stop
+            break
+        i = lo + j
         code, ended, lo, hi = _after_call(code, start, t, taken, budget, chunk, attempts, max_steps, times, i, lo, hi, clock)
         if ended:
             break
@@ -231,43 +242,29 @@ def _after_call(code, start, t, taken, budget, chunk, steps, max_steps, times, i
         clock[1], clock[2] = start, taken
         return STALLED, True, lo, hi
     if i == hi < n:
-        lo, hi = hi - 1, min(n, hi + RUN_WINDOW)
+        lo, hi = hi - 1, min(n, hi + WINDOW)
     return code, False, lo, hi
 
 
 @njit(cache=True)
 def report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
-                 kept_count, folded, count):
-    """Case b's report from its whole grid of ``rows`` (samples [0, i) made, ``code`` its status):
-    its observables, its last valid state, its kept samples (``folded``, ``count``: scratch of
-    ``ACC_COLUMNS`` floats and one integer)."""
+                 kept_count, folded, count, watch, fault):
+    """Case b's report from its whole grid of ``rows`` (samples [0, i) made, ``code`` its status;
+    ``watch``, ``fault``: its events' scratch and stop, ``case_end``): its observables, its last
+    state, its kept samples (``folded``, ``count``: scratch of ``ACC_COLUMNS`` floats and one integer)."""
     if code != OK:
         i = first_invalid_row(rows, 1, i)
-    observe_rows(times, rows, 0, i, True, constants_of(case[b], shared, applies), forces, folded)
+    constants = constants_of(case[b], shared, applies)
+    observe_rows(times, rows, 0, i, True, constants, forces, folded)
+    y, t, samples = case_end(watch, fault, rows[i - 1], times[i - 1], i, constants, forces, folded)
     store_row(acc, b, folded)
     count[0] = 0
     if keep[b] >= 0:
         keep_samples(rows, times, 0, i, 0, stride, kept[keep[b]], kept_t[keep[b]], count)
-        _keep_last(rows[i - 1], times[i - 1], kept[keep[b]], kept_t[keep[b]], count)
-    status[b], valid[b] = code, i
-    store_row(last, b, rows[i - 1])
+        _keep_last(y, t, kept[keep[b]], kept_t[keep[b]], count)
+    status[b], valid[b] = code, samples
+    store_row(last, b, y)
     kept_count[b] = count[0]
-
-
-@njit(cache=True)
-def scan_whole(method, solver, model, events, times, rows, i, code, found, fault, watch):
-    """The events of a case whose rows [1, i) were made over the whole grid (its first sample
-    opened: ``open_events``), with status ``code``: the end of its valid rows (``event_scan``; a
-    kernel stopped by a non-finite state may have written rows past its last valid one)."""
-    if code != OK:
-        i = first_invalid_row(rows, 1, i)
-    return scan_events(method, solver, model, events, times, rows, i, found, fault, watch)
-
-
-@njit(cache=True)
-def scan_dop853(solver, model, events, times, rows, i, code, found, fault, watch):
-    """``scan_whole`` of a ``dop853`` case (``solver``: rtol, atol, max_steps)."""
-    return scan_whole("dop853", solver, model, events, times, rows, i, code, found, fault, watch)
 
 
 @njit(cache=True, parallel=True)
@@ -277,27 +274,32 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions,
     ``clocks[b]``: ``dop853_case``'s clock; ``grids``: ``thread_grids(n)``, a case's whole grid)."""
     for b in prange(y0.shape[0]):
         y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, 3)
-        solver, watch = (rtol, atol, max_steps), event_scratch(events, STATE_SIZE)
+        watch = event_scratch(events, STATE_SIZE)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
-            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted, clock)
-            i = scan_dop853(solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
+            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted, clock, events, found[b], fault[b], watch)
         store_row(counters, b, counted)
         store_row(clocks, b, clock)
         report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
-                     kept_count, folded, count)
+                     kept_count, folded, count, watch, fault[b])
 
 
 @njit(cache=True)
-def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, T, lever_force, flags, counted, clock):
+def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, T, lever_force, flags, counted, clock, events, found, fault,
+                watch):
     """One ``taylor`` case from ``rows[0]`` = y over the sample grid ``times``, as its single run
     steps and stops (``dop853_case``): (status, samples made); ``counted[0]``: steps."""
-    n = times.shape[0]
-    code, i, t, lo, hi = OK, 1, times[0], 0, min(n, RUN_WINDOW + 1)
+    n, chunk = times.shape[0], chunk_steps(events, chunk)
+    solver = (order, rtol, atol, max_steps, c0, T, lever_force, flags)
+    code, i, t, lo, hi = OK, 1, times[0], 0, min(n, WINDOW + 1)
     while i < n and counted[0] < max_steps:
         before, start, budget = counted[0], t, min(chunk, max_steps - counted[0])
         code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, budget, model, c0, T, lever_force, flags,
                                     counted)
+        stop = scan_call("taylor", solver, model, events, times, rows, i, lo + j, code, found, fault, watch)
+        if stop < lo + j:  # an event stopped the case
+            i = stop
+            break
         i = lo + j
         code, ended, lo, hi = _after_call(code, start, t, counted[0] - before, budget, chunk, counted[0], max_steps, times, i, lo, hi, clock)
         if ended:
@@ -314,12 +316,12 @@ def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expre
     ``grids``: ``thread_grids(n)``)."""
     for b in prange(y0.shape[0]):
         y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, 1)
-        solver, watch = (order, rtol, atol, max_steps, c0, T, lever_force, flags), event_scratch(events, STATE_SIZE)
+        watch = event_scratch(events, STATE_SIZE)
         code, i = OK, open_events(events, times, rows, fault[b], watch)
         if i == 1:  # (as ``dop853_ensemble``)
-            code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted, clock)
-            i = scan_whole("taylor", solver, mine, events, times, rows, i, code, found[b], fault[b], watch)
+            code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted, clock, events,
+                                  found[b], fault[b], watch)
         counters[b, 0] = counted[0]
         store_row(clocks, b, clock)
         report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
-                     kept_count, folded, count)
+                     kept_count, folded, count, watch, fault[b])

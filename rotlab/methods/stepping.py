@@ -31,7 +31,7 @@ import numpy as np
 from rotlab import interrupts
 from rotlab.core import faults
 from rotlab.core.dynamics import STATE_SIZE
-from rotlab.core.kernel_status import ATTITUDE_LOST, STEP_TOO_SMALL, WINDOW, pace_judged, stall_needs, valid_rows
+from rotlab.core.kernel_status import ATTITUDE_LOST, CHUNK_STEPS, STEP_TOO_SMALL, WATCHED_STEPS, WINDOW, pace_judged, stall_needs, valid_rows
 from rotlab.methods.base import ProgressCallback, Solution
 
 if TYPE_CHECKING:
@@ -40,10 +40,6 @@ if TYPE_CHECKING:
 # a chunk of kernel work: advance(times, out, i, budget) → (status, next local sample index, steps taken)
 Chunk = Callable[[np.ndarray, np.ndarray, int, int], tuple[int, int, int]]
 
-CHUNK_STEPS = 1 << 18
-# steps per kernel call while a watch that may end the run sees the rows (a terminal event): the run
-# ends at most this many steps past it; a call's budget ends between two steps, so the steps are the same
-WATCHED_STEPS = 1 << 12
 
 
 class RowConsumer(Protocol):
