@@ -233,12 +233,10 @@ def _dop853_kernel(events_count: int):
         for m in range(3):
             counted[m], clock[m] = 0, 0.0
         store_row(rows, 0, y)
-        code, i = OK, open_events(events, times, rows, fault[b], watch)
-        if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
-            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock, events, found[b], fault[b], watch)
+        code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, clock, events, found[b], fault[b], watch)
         store_row(counters, b, counted)
         store_row(clocks, b, clock)
-        report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+        report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count, watch, fault[b])
 
     kernel = _DOP853[events_count] = _jit(dop853)

@@ -206,9 +206,11 @@ def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, cl
     """One ``dop853`` case from ``rows[0]`` = y over the sample grid ``times``, as its single run
     steps (in calls of ``chunk`` attempts, ``chunk_steps``, on ``stepping.run_chunks``'s windows: a
     step stops at a window's end) and stops (``STALLED``: after a whole chunk whose pace cannot
-    finish, as ``run_chunks`` judges it; or where its ``events`` stop it, ``event_scan``: found,
-    fault and watch its outputs and scratch): (status, samples made); ``counted``: accepted,
+    finish, as ``run_chunks`` judges it; or where its ``events``, opened at its first sample, stop
+    it, ``event_scan``: found, fault and watch its outputs and scratch): (status, samples made); ``counted``: accepted,
     rejected, evaluations; ``clock``: the integrator's time, and a stalled chunk's start and steps."""
+    if open_events(events, times, rows, fault, watch) == 0:  # an event's formula is not finite at the first sample: the case ends there
+        return OK, 1
     n, solver, chunk = times.shape[0], (rtol, atol, max_steps), chunk_steps(events, chunk)
     code, i, t, h, attempts, lo, hi = OK, 1, times[0], 0.0, 0, 0, min(n, WINDOW + 1)
     while i < n and attempts < max_steps:
@@ -275,12 +277,10 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions,
     for b in prange(y0.shape[0]):
         y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, 3)
         watch = event_scratch(events, STATE_SIZE)
-        code, i = OK, open_events(events, times, rows, fault[b], watch)
-        if i == 1:  # (else an event's formula is not finite at the first sample: the case ends there, as its single run)
-            code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted, clock, events, found[b], fault[b], watch)
+        code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted, clock, events, found[b], fault[b], watch)
         store_row(counters, b, counted)
         store_row(clocks, b, clock)
-        report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+        report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count, watch, fault[b])
 
 
@@ -289,6 +289,8 @@ def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, 
                 watch):
     """One ``taylor`` case from ``rows[0]`` = y over the sample grid ``times``, as its single run
     steps and stops (``dop853_case``): (status, samples made); ``counted[0]``: steps."""
+    if open_events(events, times, rows, fault, watch) == 0:  # (as ``dop853_case``)
+        return OK, 1
     n, chunk = times.shape[0], chunk_steps(events, chunk)
     solver = (order, rtol, atol, max_steps, c0, T, lever_force, flags)
     code, i, t, lo, hi = OK, 1, times[0], 0, min(n, WINDOW + 1)
@@ -317,11 +319,9 @@ def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expre
     for b in prange(y0.shape[0]):
         y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, 1)
         watch = event_scratch(events, STATE_SIZE)
-        code, i = OK, open_events(events, times, rows, fault[b], watch)
-        if i == 1:  # (as ``dop853_ensemble``)
-            code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted, clock, events,
-                                  found[b], fault[b], watch)
+        code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted, clock, events,
+                              found[b], fault[b], watch)
         counters[b, 0] = counted[0]
         store_row(clocks, b, clock)
-        report_whole(b, code, max(i, 1), rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
+        report_whole(b, code, i, rows, times, case, shared, applies, forces, status, valid, last, acc, keep, stride, kept, kept_t,
                      kept_count, folded, count, watch, fault[b])
