@@ -176,7 +176,7 @@ def bench_fixed(kind: str, cases: int, check: int, repeats: int) -> None:
     substeps = np.full(cases, 100, dtype=np.int64)
     case, shared, applies = observe_inputs(y0, forces)
     out = Outputs(cases)
-    call = lambda: gpu.fixed_step_ensemble(advance, y0, times, substeps, MAX_STEPS, model, extra, case, shared, applies, forces,  # noqa: E731
+    call = lambda: gpu.fixed_step_ensemble(advance, "dmv" if kind == "dmv" else "rk4", y0, times, substeps, MAX_STEPS, model, extra, case, shared, applies, forces,  # noqa: E731
                                            None, out.found, out.fault, out.status, out.valid, out.steps, out.last, out.acc, out.keep, 1, out.kept, out.kept_t,
                                            out.kept_count)
     call()  # compiles
@@ -185,7 +185,7 @@ def bench_fixed(kind: str, cases: int, check: int, repeats: int) -> None:
                                                 forces=forces, found=out.found, fault=out.fault, status=out.status, valid=out.valid, steps=out.steps, last=out.last,
                                                 acc=out.acc, keep=out.keep, kept=out.kept, kept_t=out.kept_t,
                                                 kept_count=out.kept_count).items()}
-    kernel = gpu._fixed_step_kernel(advance, 0)
+    kernel = gpu._fixed_step_kernel(advance, "dmv" if kind == "dmv" else "rk4", 0)
     device_model, table_in_use = gpu._model_to_device(model)  # (a formula load: its table's address in the model)
     launch = lambda: kernel[gpu.blocks(cases), gpu.THREADS](  # noqa: E731
         d["y0"], d["times"], d["substeps"], MAX_STEPS, device_model, gpu._tuple_to_device(extra), d["case"],

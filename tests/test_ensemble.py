@@ -345,6 +345,8 @@ def test_a_sweep_with_events_runs_in_the_ensemble_kernels_on_either_device_termi
     assert ensemble_plan_or_why(terminal).method_name == "rk4"
     ended = run_cases(terminal)
     assert ended.how.startswith("ensemble kernels (rk4") and all(o.observables["event_flip_count"] == 1 for o in ended.outcomes)
+    never = run_cases(plan(write("n.toml", text + "terminal = true\ncount = 9223372036854775808\n")))  # (beyond int64: never reached)
+    assert [o.observables["event_flip_count"] for o in never.outcomes] == [o.observables["event_flip_count"] for o in run.outcomes]
 
 
 @pytest.mark.parametrize("method, changes", [("rk4", {"step": 1e-3}), ("dop853", {})], ids=["rk4", "dop853"])

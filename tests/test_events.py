@@ -224,3 +224,28 @@ def test_a_root_at_the_start_of_its_sample_interval_is_an_occurrence():
     traj = flip_run("rk4", **{"solver.step": 1e-3, "time.sample_rate": 500.0, "time.end": 8.0},
                     events=[{"name": "lg", "when": "log(8.194 - t)"}])
     assert traj.events["lg"].count == 1 and abs(traj.events["lg"].t[0] - 7.194) <= 1e-12
+
+
+def test_a_run_a_terminal_event_ends_is_not_judged_by_its_whole_spans_pace():
+    """A heavy top at rtol 1e-13 steps ~1 ms: over its 1,000-s span that pace needs ~10⁶ steps,
+    beyond solver.max_steps = 30,000, which stopped it after its first 4,096 steps ("no progress")
+    though its terminal event ends it at t = 6.3 s, 7,891 steps in. Not judged while a terminal
+    event may end the run, it ends there, alone and in the ensemble kernels alike."""
+    from rotlab.config.loader import parse_scenario
+    from rotlab.ensemble.block import run_block
+    from rotlab.methods.base import Settings
+    from rotlab.methods.registry import get_method
+    from rotlab.scene.scene import build_scene
+
+    raw = {"body": {"principal_moments": [1.1e-3, 1.1e-3, 5.0e-4], "mass": 0.5, "center_of_mass": [0.0, 0.0, 0.04]},
+           "initial": {"omega": [0.0, 0.0, 150.0], "euler_313_deg": [0.0, 25.0, 0.0]},
+           "loads": [{"type": "gravity", "g": [0.0, 0.0, -9.81]}], "time": {"end": 1000.0, "sample_rate": 2},
+           "solver": {"method": "dop853", "rtol": 1e-13, "atol": 1e-16, "max_steps": 30000},
+           "events": [{"name": "turn", "when": "gamma[0]*omega[1] - gamma[1]*omega[0]", "direction": "rising", "terminal": True}]}
+    scenario = parse_scenario(raw)
+    traj = rotlab.simulate(scenario)
+    assert traj.ok and "event 'turn' (occurrence 1)" in traj.stats.details["ended by"] and 6.0 < traj.t[-1] < 6.6
+    assert 4096 < traj.stats.steps < 30000
+    scene = build_scene(scenario)
+    block = run_block([scene], get_method("dop853"), Settings.of(scenario.solver), scenario.time.sample_times(), [0], 1, [None])
+    assert block.failure[0] is None and block.steps[0] == traj.stats.steps and np.array_equal(block.kept[0][1], traj._state)

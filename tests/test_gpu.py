@@ -101,7 +101,8 @@ def test_events_on_the_gpu_are_the_cpu_ensembles_bit_for_bit():
     ``record`` formulas), a ``when`` that turns non-finite mid-run, a ``record`` formula that is
     not finite at its event, a ``when`` not finite at the first sample, a terminal event: every
     event column, the samples made, the last states, the kept samples (a terminal event's state
-    last) and the failure messages ``np.array_equal`` to the CPU ensemble's."""
+    last) and the failure messages ``np.array_equal`` to the CPU ensemble's; no cached function
+    specialised on a Python function object."""
     result = _python("""
         import numpy as np
         from rotlab.ensemble.block import run_block
@@ -133,6 +134,11 @@ def test_events_on_the_gpu_are_the_cpu_ensembles_bit_for_bit():
                 assert name != "terminal" or (np.all(cuda.valid < t.shape[0]) and [d["ended by"] for d in cuda.details] == [d["ended by"] for d in cpu.details])
                 assert name != "located" or np.all(cuda.events["event_flip_count"] == 1)
                 print(method, name, "identical")
+        # the cached functions the GPU path reaches are keyed on names, not on Python function objects (their disk
+        # cache entries would pile up, unusable by later processes, until numba failed to save it: ReferenceError)
+        from numba import types
+        from rotlab.ensemble.event_scan import scan_events
+        assert scan_events.signatures and not any(isinstance(a, types.Dispatcher) for sig in scan_events.signatures for a in sig)
     """, SIMULATOR)
     assert result.returncode == 0, result.stderr[-3000:]
     assert result.stdout.count("identical") == 10
@@ -310,7 +316,7 @@ def test_a_gpu_result_that_is_not_the_cpus_stops_the_sweep_in_one_line(tmp_path)
         run = gpu.fixed_step_ensemble
         def corrupted(*args):
             run(*args)
-            args[17][4, :4] = 0.0  # ``last`` of the block's case 4 (of 12: one call): Λ = 0, as the device gave
+            args[18][4, :4] = 0.0  # ``last`` of the block's case 4 (of 12: one call): Λ = 0, as the device gave
         gpu.fixed_step_ensemble = corrupted
         from rotlab.cli import main
         sys.argv = ["rotlab", "sweep", {str(config)!r}, "--device", "cuda", "-o", {str(tmp_path / "out")!r}]

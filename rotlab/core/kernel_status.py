@@ -77,9 +77,11 @@ def valid_rows(rows: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def pace_judged(taken, budget, chunk, steps, max_steps):
-    """Whether a call's pace may be judged (``stall_needs``): it took a whole chunk of steps and
-    the run has steps left (a shorter call ended at its window or its budget)."""
-    return taken >= budget == chunk and steps < max_steps
+    """Whether a call's pace may be judged (``stall_needs``): it took a whole chunk of
+    ``CHUNK_STEPS`` steps and the run has steps left (a shorter call ended at its window or its
+    budget).  A run that a terminal event may end (calls of ``WATCHED_STEPS``) is not judged: it
+    may end long before the span does, so the span's steps are not what it needs."""
+    return taken >= budget == chunk == CHUNK_STEPS and steps < max_steps
 
 
 @njit(cache=True)

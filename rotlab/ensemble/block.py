@@ -146,6 +146,9 @@ def shared_inputs(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return shared, applies, forces
 
 
+MAX_COUNT = 2**53  # a terminal event's count as the kernels hold it (its occurrences are counted in float64; a count beyond is never reached)
+
+
 def event_inputs(scene: Scene) -> tuple[EventInputs | None, CompiledEvents | None]:
     """The scene's events for the kernels (``rotlab.ensemble.event_scan``; None without events)
     and the compiled events they point to (to be kept alive while the kernels run)."""
@@ -161,7 +164,8 @@ def event_inputs(scene: Scene) -> tuple[EventInputs | None, CompiledEvents | Non
     return EventInputs(compiled.fn, compiled.rows, compiled.axes, compiled.axes_q, compiled.moments,
                        np.array([DIRECTIONS[spec.direction] for spec in specs], dtype=np.int64),
                        np.array([len(spec.record) for spec in specs], dtype=np.int64), rates_only,
-                       np.array([spec.count if spec.terminal else 0 for spec in specs], dtype=np.int64), formula_table(compiled.programs),
+                       np.array([min(spec.count, MAX_COUNT) if spec.terminal else 0 for spec in specs], dtype=np.int64),
+                       formula_table(compiled.programs),
                        compiled.depth), compiled
 
 
@@ -289,7 +293,7 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
             from rotlab.ensemble import gpu
 
             with _gpu_errors(device):
-                gpu.fixed_step_ensemble(method.kernel, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
+                gpu.fixed_step_ensemble(method.kernel, method.name, y0, t, substeps, settings.max_steps, scene.model, method.kernel_args(scene, order),
                                         *inputs, events, found, fault, *outputs)
         else:
             with parallel_chunksize(1):

@@ -33,7 +33,7 @@ import threading
 from contextlib import contextmanager
 
 import numpy as np
-from numba import config, cuda, types
+from numba import config, cuda, njit, types
 
 from rotlab.core import targets
 from rotlab.core.dynamics import STATE_SIZE, store_row
@@ -156,17 +156,29 @@ def rebuild_kernels() -> None:
     _DOP853.clear()
 
 
-_FIXED: dict[tuple, object] = {}  # (a fixed-step method's kernel, events) → its CUDA kernel
+_FIXED: dict[tuple, object] = {}  # (a fixed-step method's kernel, its name, events) → its CUDA kernel
 _DOP853: dict[int, object] = {}  # events → dop853's CUDA kernel
 
 
-def _fixed_step_kernel(advance, events_count: int):
+def _scanner(method: str):
+    """``scan_events`` for the method named ``method``, the name a literal (``method_calls``): a
+    wrapper made per process (uncached, cheap); what it calls is cached under the name."""
+    @njit
+    def scan(solver, model, events, times, rows, stop, found, fault, watch):
+        return scan_events(method, solver, model, events, times, rows, stop, found, fault, watch)
+
+    return scan
+
+
+def _fixed_step_kernel(advance, method: str, events_count: int):
     """The CUDA kernel that runs the fixed-step ``advance`` (``rotlab.methods.fixed_step``'s
-    signature) for every case of a scene with ``events_count`` events: ``kernels.fixed_step_ensemble``'s
-    outputs, one sample interval a call, each interval's events found after it is made."""
-    kernel = _FIXED.get((advance, events_count))
+    signature) of the method named ``method`` for every case of a scene with ``events_count``
+    events: ``kernels.fixed_step_ensemble``'s outputs, one sample interval a call, each interval's
+    events found after it is made."""
+    kernel = _FIXED.get((advance, method, events_count))
     if kernel is not None:
         return kernel
+    scan = _scanner(method)
 
     def fixed_step(y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, events, found, fault, status, valid,
                    steps, last, acc, keep, stride, kept, kept_t, kept_count):
@@ -194,7 +206,7 @@ def _fixed_step_kernel(advance, events_count: int):
             taken += done
             if code != OK or j == 1:  # non-finite (nothing stored), or the step budget cannot reach the sample
                 break
-            if scan_events(advance, (substeps[b], extra), model, events, times[i - 1:i + 1], rows, 2, found[b], fault[b], watch) == 1:
+            if scan((substeps[b], extra), model, events, times[i - 1:i + 1], rows, 2, found[b], fault[b], watch) == 1:
                 break  # an event's formula is not finite, or a terminal event occurred: the case ends before this sample
             observe_rows(times[i - 1:i + 1], rows, 1, 2, False, constants, forces, folded)
             if keep[b] >= 0:
@@ -205,7 +217,7 @@ def _fixed_step_kernel(advance, events_count: int):
         report_fixed_step(b, code, samples, taken, y_end, t_end, folded, count, status, valid, steps, last, acc, keep, kept, kept_t,
                           kept_count)
 
-    kernel = _FIXED[(advance, events_count)] = _jit(fixed_step)
+    kernel = _FIXED[(advance, method, events_count)] = _jit(fixed_step)
     return kernel
 
 
@@ -311,10 +323,12 @@ def _copy_back(device: dict[str, object], host: dict[str, np.ndarray]) -> None:
         device[name].copy_to_host(a)
 
 
-def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, events, found, fault,
-                        status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count) -> None:
+def fixed_step_ensemble(advance, method, y0, times, substeps, max_steps, model, extra, case, shared, applies, forces, events, found,
+                        fault, status, valid, steps, last, acc, keep, stride, kept, kept_t, kept_count) -> None:
     """``kernels.fixed_step_ensemble`` on the GPU, for the fixed-step kernel ``advance`` (a
-    ``@njit`` function, not a method's name); the outputs are written to the host arrays given."""
+    ``@njit`` function: the CPU's kernels find it by name, which would import the method catalog,
+    beyond ``bench_gpu.py``'s imports) of the method named ``method``; the outputs are written to
+    the host arrays given."""
     targets.enable_cuda()
     inputs = _to_device({"y0": y0, "times": times, "substeps": substeps, "case": case, "shared": shared, "applies": applies,
                          "forces": forces, "keep": keep})
@@ -324,7 +338,7 @@ def fixed_step_ensemble(advance, y0, times, substeps, max_steps, model, extra, c
     device_model, table_in_use = _model_to_device(model)  # (the tables live until the results are copied back)
     device_events, events_table_in_use = _events_to_device(events)
     with _compiling():
-        _fixed_step_kernel(advance, found.shape[1])[blocks(y0.shape[0]), THREADS](
+        _fixed_step_kernel(advance, method, found.shape[1])[blocks(y0.shape[0]), THREADS](
             inputs["y0"], inputs["times"], inputs["substeps"], max_steps, device_model, _tuple_to_device(extra),
             inputs["case"], inputs["shared"], inputs["applies"], inputs["forces"], device_events, out["found"], out["fault"], out["status"],
             out["valid"], out["steps"], out["last"], out["acc"], inputs["keep"], stride, out["kept"], out["kept_t"], out["kept_count"])

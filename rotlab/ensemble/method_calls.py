@@ -1,6 +1,8 @@
 """A method's compiled calls inside the ensemble kernels, the method named by a literal string
-(``numba.literally``; the CPU's kernels, cached on disk), or, in a GPU's kernels (compiled per
-process), by its fixed-step kernel itself (an ``@njit`` function).
+(``numba.literally`` in the CPU's kernels; a GPU kernel's name, ``gpu._scanner``): a kernel passed
+as an argument would make every cached function it reaches keyed on a Python object, entries a
+later process cannot use (they pile up in the disk cache, and once their objects are gone numba
+fails to save it again: ``ReferenceError``).
 
     advance_of(method, y, times, rows, i, substeps, budget, model, extra)
         a fixed-step method's kernel (``rotlab.methods.fixed_step``), called with ``*extra``
@@ -45,8 +47,6 @@ def local_state(method, solver, model, y0, t0, t1, scratch):
 
 @overload(local_state)
 def _local_state(method, solver, model, y0, t0, t1, scratch):
-    if isinstance(method, types.Dispatcher):  # a fixed-step method's kernel (a GPU's)
-        return _fixed_step_local(method.dispatcher)
     if not isinstance(method, types.StringLiteral):
         return None
     name = method.literal_value
