@@ -155,6 +155,21 @@ def test_a_case_the_step_cannot_take_is_an_error_and_the_others_run(write):
     assert bad.status == "error" and bad.message.startswith("solver.step: 0.001 s is too large to be stable")
 
 
+def test_a_case_refused_before_stepping_is_worded_alike_by_the_kernels_and_by_workers(write):
+    """A step budget the span exceeds refuses each case before it steps: the ensemble's row and the
+    workers' (``--timeout``) give the same status, method and message (the workers' used to add
+    the exception's class name, ``InputError: ``, and leave the method empty)."""
+    text = ('[body]\nprincipal_moments = [1.0e-4, 2.0e-4, 2.8e-4]\n[initial]\nomega = [0.01, 10.0, 0.01]\n[time]\nend = 20.0\n'
+            'sample_rate = 20\n[solver]\nmethod = "rk4"\nstep = 1e-3\nmax_steps = 5000\n[sweep]\n[sweep.parameters]\n'
+            '"initial.omega[0]" = [0.1, 0.5]\n')
+    p = plan(write("s.toml", text))
+    kernels, workers = run_cases(p), run_cases(p, timeout=1000.0)
+    assert kernels.how.startswith("ensemble kernels") and not workers.how.startswith("ensemble kernels")
+    for a, b in zip(kernels.outcomes, workers.outcomes):
+        assert (a.status, a.method, a.message) == (b.status, b.method, b.message) == ("error", "rk4", a.message)
+        assert a.message.startswith("solver.max_steps: rk4 needs 2e+04 steps")
+
+
 def test_cases_are_made_when_asked_in_the_grids_product_order(write):
     text = ('[body]\nprincipal_moments = [1.0, 2.0, 3.0]\n[initial]\nomega = [0.1, 1.0, 0.1]\n[time]\nend = 1.0\n[sweep]\nseed = 5\nsamples = 3\n'
             '[sweep.parameters]\n"initial.omega[0]" = [0.1, 0.2]\n"initial.omega[1]" = [1.0, 2.0, 3.0]\n'

@@ -154,6 +154,12 @@ def case_outcome(case: Case, scene, method: str, steps: int, seconds: float, fai
     )
 
 
+def case_error(exc: Exception) -> str:
+    """A case's error as its results row words it: rotlab's own errors in their words (a key and
+    its fix); anything else with its type, since it is not one rotlab foresaw."""
+    return str(exc) if isinstance(exc, (InputError, RunFailure)) else f"{type(exc).__name__}: {exc}"
+
+
 def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError], choice: SharedChoice | None = None,
                     compared: frozenset[int] | None = None) -> list[CaseOutcome]:
     """Cases one after the other, reported together (``outcomes_of``); never raises for a case:
@@ -171,15 +177,16 @@ def run_sweep_cases(cases: list[Case], scenarios: list[cfg.Scenario | InputError
             outcomes[k] = CaseOutcome(case.index, case.values, "error", message=str(scenario))
             continue
         started = time.perf_counter()
+        shared = choice is not None and case.index not in choice.own
         try:
-            shared = choice is not None and case.index not in choice.own
             if shared and plan is None:  # the cases' sample times are the same: made once
                 plan = (get_method(choice.method), choice.why, choice.settings, scenario.time.sample_times())
             # a failed case is reported by its checks
             traj = api.run_scene(build_scene(scenario), plan=plan) if shared else api.simulate(scenario, check=False)
         except Exception as exc:
-            outcomes[k] = CaseOutcome(case.index, case.values, "error", seconds=time.perf_counter() - started,
-                                      message=f"{type(exc).__name__}: {exc}")
+            method = choice.method if shared else (scenario.solver.method if scenario.solver.method != "auto" else "")  # (auto's own: not chosen)
+            outcomes[k] = CaseOutcome(case.index, case.values, "error", method=method, seconds=time.perf_counter() - started,
+                                      message=case_error(exc))
             continue
         runs.append((k, case, traj, time.perf_counter() - started))
     for (k, *_), outcome in zip(runs, outcomes_of([run[1:] for run in runs], compared)):
@@ -312,7 +319,7 @@ def run_ensemble_chunk(raw: dict[str, Any], base: cfg.Scenario, source: str, cas
             else:
                 runnable.append((case, build_scene(scenario)))
         except Exception as exc:  # (one case's, as ``run_sweep_cases`` reports it: not the whole block's)
-            outcomes[case.index] = CaseOutcome(case.index, case.values, "error", message=f"{type(exc).__name__}: {exc}")
+            outcomes[case.index] = CaseOutcome(case.index, case.values, "error", message=case_error(exc))
     if runnable:
         scenes = [scene for _, scene in runnable]
         t = scenes[0].scenario.time.sample_times()
