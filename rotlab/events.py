@@ -34,6 +34,7 @@ import numpy as np
 
 from rotlab.core import event_root as root
 from rotlab.core.event_values import FALLING, RISING, crossings, first_not_finite, formula_values
+from rotlab.core.formula_table import formula_table
 from rotlab.core import quaternion as quat
 from rotlab.core import opcodes
 from rotlab.core.quaternion import from_matrix
@@ -87,6 +88,7 @@ class CompiledEvents:
         parsed = [event.programs() for event in events]
         self.programs = [[program for program, _ in formulas_] for formulas_ in parsed]
         self.depth = max(depth for formulas_ in parsed for _, depth in formulas_)
+        self.table = formula_table(self.programs)  # (a GPU's way to evaluate them: ``rotlab.ensemble.gpu``)
         self._function = formulas.compiled(self.programs, checked=False)  # kept alive: the kernels hold its address only
         self.fn = self._function.address
         self.rows = np.zeros((len(events), EX_COLUMNS))

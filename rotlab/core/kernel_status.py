@@ -76,6 +76,13 @@ def valid_rows(rows: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
+def needs_whole_chunks(status, taken, progressed, budget, chunk):
+    """A call of ``chunk`` steps that made no sample, nothing failing: a sample interval needs
+    more steps than ``WATCHED_STEPS``, and the run's calls take ``CHUNK_STEPS`` from then on."""
+    return status == OK and taken == 0 and not progressed and budget == chunk < CHUNK_STEPS
+
+
+@njit(cache=True)
 def pace_judged(taken, budget, chunk, steps, max_steps):
     """Whether a call's pace may be judged (``stall_needs``): it took a whole chunk of
     ``CHUNK_STEPS`` steps and the run has steps left (a shorter call ended at its window or its

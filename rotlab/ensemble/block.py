@@ -21,7 +21,6 @@ import numpy as np
 from numba import parallel_chunksize
 
 from rotlab.checks import period_of
-from rotlab.core.formula_table import formula_table
 from rotlab.core.kernel_status import ATTITUDE_LOST, NONFINITE, OK, STALLED
 from rotlab.ensemble import observe as ob
 from rotlab.ensemble.cross_check import GpuDisagreement, checked_cases, disagreement, library_calls
@@ -164,8 +163,7 @@ def event_inputs(scene: Scene) -> tuple[EventInputs | None, CompiledEvents | Non
     return EventInputs(compiled.fn, compiled.rows, compiled.axes, compiled.axes_q, compiled.moments,
                        np.array([DIRECTIONS[spec.direction] for spec in specs], dtype=np.int64),
                        np.array([len(spec.record) for spec in specs], dtype=np.int64), rates_only,
-                       np.array([min(spec.count, MAX_COUNT) if spec.terminal else 0 for spec in specs], dtype=np.int64),
-                       formula_table(compiled.programs),
+                       np.array([min(spec.count, MAX_COUNT) if spec.terminal else 0 for spec in specs], dtype=np.int64), compiled.table,
                        compiled.depth), compiled
 
 
@@ -347,7 +345,9 @@ def _check_on_the_cpu(result: BlockResult, scenes: list[Scene], method, settings
         raise cpu
     found = disagreement(result, cpu, positions)
     if found is not None:
-        compiled = event_inputs(scenes[0])[1]
+        from rotlab.events import compile_events
+
+        compiled = compile_events(scenes[0])
         raise GpuDisagreement(*found, library_calls(scenes[0].model, method.name, compiled.programs if compiled is not None else []))
 
 

@@ -28,7 +28,7 @@ from numba.extending import overload
 from rotlab.core.dop853 import dop853_advance
 from rotlab.core.taylor import taylor_advance
 from rotlab.core.dynamics import STATE_SIZE, store_row
-from rotlab.core.kernel_status import CHUNK_STEPS, OK, STALLED, WINDOW, first_invalid_row, pace_judged, stall_needs
+from rotlab.core.kernel_status import CHUNK_STEPS, OK, STALLED, WINDOW, first_invalid_row, needs_whole_chunks, pace_judged, stall_needs
 from rotlab.ensemble.event_scan import case_end, chunk_steps, event_scratch, open_events, scan_call
 from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
@@ -149,17 +149,17 @@ def fixed_step_ensemble(method, y0, times, substeps, max_steps, model, expressio
             budget = min(chunk, max_steps - taken)
             code, made, done = advance_of(literally(method), y, times[lo:hi], rows, i - lo, substeps[b], budget, mine, extra)
             taken += done
-            if code == OK and done == 0 and lo + made == i and budget == chunk < CHUNK_STEPS:  # a sample needs more: whole chunks
+            if needs_whole_chunks(code, done, lo + made > i, budget, chunk):
                 chunk = CHUNK_STEPS
                 continue
             j = scan_call(literally(method), solver, mine, events, times[lo:hi], rows, i - lo, made, code, found[b], fault[b], watch)
             observe_rows(times[lo:hi], rows, i - lo, j, False, constants, forces, folded)
             if keep[b] >= 0:
                 keep_samples(rows, times[lo:hi], i - lo, j, lo, stride, kept[keep[b]], kept_t[keep[b]], count)
-            if code != OK or lo + j == i or j < made:  # not finite, the step budget cannot reach the next sample, or an event stopped it
-                i = lo + j
-                break
+            ended = code != OK or lo + j == i or j < made  # not valid, the step budget cannot reach the next sample, or an event stopped it
             i = lo + j
+            if ended:
+                break
             if i == hi < n:  # window full: its last row starts the next one
                 store_row(rows, 0, rows[hi - lo - 1])
                 lo, hi = hi - 1, min(n, hi + WINDOW)
@@ -219,7 +219,7 @@ def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, cl
         stop = scan_call("dop853", solver, model, events, times, rows, i, lo + j, code, found, fault, watch)
         taken = counted[0] + counted[1] - before
         attempts += taken
-        if stop < lo + j:  # an event stopped the case
+        if stop < lo + j:  # (rows cut: past a state not valid, or where an event stopped the case)
             i = stop
             break
         i = lo + j
@@ -299,7 +299,7 @@ def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, 
         code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, budget, model, c0, T, lever_force, flags,
                                     counted)
         stop = scan_call("taylor", solver, model, events, times, rows, i, lo + j, code, found, fault, watch)
-        if stop < lo + j:  # an event stopped the case
+        if stop < lo + j:  # (rows cut: past a state not valid, or where an event stopped the case)
             i = stop
             break
         i = lo + j

@@ -31,7 +31,8 @@ import numpy as np
 from rotlab import interrupts
 from rotlab.core import faults
 from rotlab.core.dynamics import STATE_SIZE
-from rotlab.core.kernel_status import ATTITUDE_LOST, CHUNK_STEPS, STEP_TOO_SMALL, WATCHED_STEPS, WINDOW, pace_judged, stall_needs, valid_rows
+from rotlab.core.kernel_status import ATTITUDE_LOST, CHUNK_STEPS, STEP_TOO_SMALL, WATCHED_STEPS, WINDOW, needs_whole_chunks, pace_judged, \
+    stall_needs, valid_rows
 from rotlab.methods.base import ProgressCallback, Solution
 
 if TYPE_CHECKING:
@@ -184,10 +185,10 @@ def run_chunks(
             status, local, taken = advance(times, window, i - base, budget)
             steps += taken
             done = base + local
-            if status == 0 and taken == 0 and done == i and budget == chunk < CHUNK_STEPS:  # a sample needs more: whole chunks
+            # (the predicates' Python functions: a compiled call here would add a compile to a run's start)
+            if needs_whole_chunks.py_func(status, taken, done > i, budget, chunk):
                 chunk = CHUNK_STEPS
                 continue
-            # (the predicate's Python function: a compiled call here would add a compile to a run's start)
             if status == 0 and integrator_time is not None and pace_judged.py_func(taken, budget, chunk, steps, max_steps):
                 failure = stall_message(start, now(), taken, float(t[n - 1]), max_steps - steps, max_steps)
             if status != 0:
