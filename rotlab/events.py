@@ -91,6 +91,7 @@ class CompiledEvents:
         self.table = formula_table(self.programs)  # (a GPU's way to evaluate them: ``rotlab.ensemble.gpu``)
         self._function = formulas.compiled(self.programs, checked=False)  # kept alive: the kernels hold its address only
         self.fn = self._function.address
+        self.consts = formulas.constant_values(self.programs)
         self.rows = np.zeros((len(events), EX_COLUMNS))
         for k, event in enumerate(events):
             up = np.asarray(event.up, dtype=float)
@@ -107,7 +108,7 @@ class CompiledEvents:
         """Formula ``component`` (0: ``when``, j + 1: ``record[j]``) of event ``k`` at each row of
         ``states`` (principal frame) at times ``t``."""
         out = np.empty(t.shape[0])
-        formula_values(self.fn, self.rows, k, component, np.ascontiguousarray(t, dtype=float),
+        formula_values(self.fn, self.consts, self.rows, k, component, np.ascontiguousarray(t, dtype=float),
                        np.ascontiguousarray(states), self.axes, self.axes_q, self.moments, self.rates_only[k][component], out)
         return out
 

@@ -30,6 +30,18 @@ ROTLAB = Path(sys.executable).with_name("rotlab")
 TILTED = [[2.0, 0.3, -0.1], [0.3, 3.0, 0.2], [-0.1, 0.2, 4.0]]  # not principal: exercises the user frame
 
 
+def _generated(address: int, consts: np.ndarray):
+    """The scene's generated formulas at ``address`` (``rotlab.scene.formulas``) as a Python
+    function of (load, component, *inputs), reading the constants ``consts``."""
+    import ctypes
+
+    signature = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, ctypes.POINTER(ctypes.c_double),
+                                 *[ctypes.c_double] * opcodes.N_INPUTS)
+    function, held = signature(address), np.ascontiguousarray(consts, dtype=float)
+    pointer = held.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+    return lambda load, component, *x: function(load, component, pointer, *x)
+
+
 def _scenario(loads, method, body=None, end=2.0, omega=(0.3, -1.1, 0.7), **solver):
     body = body or {"inertia_tensor": TILTED, "mass": 2.0, "center_of_mass": [0.1, -0.05, 0.3]}
     settings = {"method": method, "rtol": 1e-12, "atol": 1e-14, **solver}
@@ -239,7 +251,7 @@ def test_taylor_mode_series_match_mpmath(name):
         assert abs(got[k] - expected[k]) <= 1e-13 * max(1.0, abs(expected[k])) * 1.5**k, (k, got[k], expected[k])
     from rotlab.scene import formulas
 
-    value = formulas.compiled(builder.programs).ctypes(0, 0, t0, *np.zeros(opcodes.N_INPUTS - 1))  # the compiled formula
+    value = _generated(formulas.compiled(builder.programs).address, np.array(builder.consts))(0, 0, t0, *np.zeros(opcodes.N_INPUTS - 1))
     assert value == pytest.approx(float(reference(mpmath.mpf(t0))), rel=1e-14)
 
 
@@ -481,7 +493,7 @@ def test_the_gpus_formula_interpreter_gives_the_compiled_functions_values_bit_fo
     ex = builder.build(np.eye(3), np.ones(3))
     table = formula_table(expression_programs(ex))  # (the model's programs read back, as the GPU's table is made)
     assert np.array_equal(table, formula_table(builder.programs))  # (… which are the generated function's)
-    compiled = formulas.compiled(builder.programs, checked=False).ctypes
+    compiled = _generated(formulas.compiled(builder.programs, checked=False).address, formulas.constant_values(builder.programs))
     rng = np.random.default_rng(3)
     points = [rng.normal(0.0, 2.0, opcodes.N_INPUTS) for _ in range(200)] + [np.r_[1.0, np.zeros(opcodes.N_INPUTS - 1)]]
     special = 0
@@ -499,8 +511,6 @@ def test_the_formula_table_of_events_interprets_each_events_formulas_as_their_co
     """Events have 1 + len(record) formulas each (3, 1, 2 here): the table's rows are as wide as
     the widest event, and ``run_program`` over ``block.event_inputs``' table (the GPU's way) gives
     the compiled events function's values bit for bit, NaN and inf included."""
-    import ctypes
-
     from rotlab.core.expressions import run_program
     from rotlab.ensemble.block import event_inputs
 
@@ -509,7 +519,7 @@ def test_the_formula_table_of_events_interprets_each_events_formulas_as_their_co
     scene = build_scene(parse_scenario({"body": {"principal_moments": [1.0, 2.0, 3.0]}, "time": {"end": 1.0}, "events": events}))
     inputs, compiled = event_inputs(scene)
     assert inputs.table[0] == 3 and inputs.depth == compiled.depth >= 2
-    function = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * opcodes.N_INPUTS)(inputs.fn)
+    function = _generated(inputs.fn, inputs.consts)
     rng = np.random.default_rng(11)
     special = 0
     for _ in range(200):
@@ -526,8 +536,6 @@ def test_the_formula_table_of_a_gyrostat_holds_its_drives_after_its_loads():
     """Driven rotors' formulas (pd_control) are the programs' loads after the formula loads'
     (``Drives.offset``): the table of both row sets, in that order, interprets each as the scene's
     compiled function does, bit for bit (``model_formula_table``, which ``gpu._model_to_device`` calls)."""
-    import ctypes
-
     from rotlab.config.loader import read_toml
     from rotlab.core.expressions import run_program
     from rotlab.core.formula_table import model_formula_table
@@ -540,10 +548,31 @@ def test_the_formula_table_of_a_gyrostat_holds_its_drives_after_its_loads():
     assert ex is not None and drives is not None and drives.offset == ex.rows.shape[0] == 1
     table, depth = model_formula_table(model)
     assert depth == max(ex.depth, drives.ex.depth)
-    compiled = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * opcodes.N_INPUTS)(ex.fn)
+    compiled = _generated(ex.fn, ex.consts)
     rng = np.random.default_rng(5)
     programs = [(0, c) for c in range(3)] + [(drives.offset + j, 0) for j in range(drives.axes.shape[0])]
     for _ in range(100):
         x = rng.normal(0.0, 1.0, opcodes.N_INPUTS)
         for load, component in programs:
             assert np.array_equal(run_program(table, load, component, tuple(x)), compiled(load, component, *x), equal_nan=True)
+
+
+def test_programs_that_differ_in_their_constants_only_share_one_compiled_function():
+    """The generated function reads the programs' constants from its argument (in the order the
+    Taylor-mode code indexes them, ``Expressions.consts``), so formulas with other values of their
+    named constants reuse it, each with its own values (to rounding, against Python's math)."""
+    from rotlab.scene import formulas
+
+    texts = ["-k*omega[0] + k**2*sin(t)", "atan2(k, omega[1]) - 2.5", "k*gamma[2]**3"]
+    x = np.array([0.4, 1.1, -0.6, 0.2, 0.5, 0.5, 0.5, 0.5, 0.3, -0.2, 0.9, 1.0, 2.0, 3.0])
+    functions = set()
+    for k in (0.3, -1.7):
+        builder = ProgramBuilder()
+        builder.formulas(texts, {"k": k}, 0.0, (-np.inf, np.inf))
+        np.testing.assert_array_equal(formulas.constant_values(builder.programs), builder.consts)
+        function = formulas.compiled(builder.programs)
+        functions.add(function)
+        values = [_generated(function.address, np.array(builder.consts))(0, c, *x) for c in range(3)]
+        expected = [-k * x[1] + k**2 * math.sin(x[0]), math.atan2(k, x[2]) - 2.5, k * x[10]**3]
+        assert values == pytest.approx(expected, rel=1e-15, abs=0)
+    assert len(functions) == 1

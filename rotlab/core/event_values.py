@@ -14,7 +14,7 @@ from rotlab.core.torques import _to_user, expression_inputs
 
 
 @njit(cache=True, inline="always")
-def formula_value(fn, rows, k, component, t, y, axes, axes_q, moments, rates_only):
+def formula_value(fn, consts, rows, k, component, t, y, axes, axes_q, moments, rates_only):
     """Formula ``component`` of event ``k`` at (t, y) (principal frame); ``rows[k]`` holds the
     event's ``up`` direction as an expression load's row does.  ``rates_only``: the formula
     reads only t and ω, so Λ, γ and L are not formed (0 in their places)."""
@@ -23,14 +23,14 @@ def formula_value(fn, rows, k, component, t, y, axes, axes_q, moments, rates_onl
         x = (t, w0, w1, w2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     else:
         x = expression_inputs(t, y, rows, k, axes, axes_q, moments)
-    return call_formulas(fn, k, component, x)
+    return call_formulas(fn, consts, k, component, x)
 
 
 @njit(cache=True)
-def formula_values(fn, rows, k, component, t, states, axes, axes_q, moments, rates_only, out):
+def formula_values(fn, consts, rows, k, component, t, states, axes, axes_q, moments, rates_only, out):
     """out[i] = ``formula_value`` at (t[i], states[i])."""
     for i in range(t.shape[0]):
-        out[i] = formula_value(fn, rows, k, component, t[i], states[i], axes, axes_q, moments, rates_only)
+        out[i] = formula_value(fn, consts, rows, k, component, t[i], states[i], axes, axes_q, moments, rates_only)
 
 
 RISING, FALLING = 1, 2  # bits of an event's direction (both: 3)

@@ -4,7 +4,8 @@ Two ways to run a formula, each where it measured best (docs/benchmarks.md, "exp
 * on numbers (rk4, rkmk4, dop853): generated source compiled to a numba ``cfunc`` of one fixed
   signature (``EXPRESSION_SIGNATURE``) — native speed; the kernels receive its address, an
   integer (the same type for every formula), so they stay compiled and cached on disk, and a
-  new formula costs only its own small compilation (also cached on disk, keyed by a hash).  A stack
+  new formula costs only its own small compilation (also cached on disk, keyed by a hash of its
+  operations: its constants are an argument, so a new value of a gain costs none).  A stack
   interpreter over the code array would keep every kernel cached too, but dispatches every
   operation at every right-hand side, which makes even a simple load such as −k ω dominate the
   step; a jitted function as a kernel argument recompiles every kernel per formula and cannot be
@@ -53,9 +54,11 @@ FIRST_BINARY = op.FIRST_BINARY
 
 
 # The value of a program: ``rotlab.scene.formulas`` writes each scene's programs as the Python
-# source of one numba ``cfunc`` of this signature, (load, component, x0 … x13) → value, with the
-# helpers below for the operations that need a guard.  Every scene's function has the same
-# numba type, so the kernels that call it are compiled once and cached on disk; they call it
+# source of one numba ``cfunc`` of this signature, (load, component, c, x0 … x13) → value, with
+# the helpers below for the operations that need a guard; ``c`` points to the programs' constants
+# (their CONST arguments in order: ``Expressions.consts``), so programs that differ only in their
+# constants (a sweep over a gain) share one compiled function.  Every scene's function has the
+# same numba type, so the kernels that call it are compiled once and cached on disk; they call it
 # through its address (``call_formulas``).
 
 
@@ -63,46 +66,48 @@ def _expression_signature():
     from numba import types
 
     f = types.float64
-    return f(types.int64, types.int64, *([f] * op.N_INPUTS))
+    return f(types.int64, types.int64, types.CPointer(f), *([f] * op.N_INPUTS))
 
 
 EXPRESSION_SIGNATURE = _expression_signature()
 
 
 @intrinsic
-def _call_address(typingctx, address, load, component, inputs):
-    """fn(load, component, *inputs) for the cfunc at ``address`` (an int64) of
+def _call_address(typingctx, address, consts, load, component, inputs):
+    """fn(load, component, consts' data, *inputs) for the cfunc at ``address`` (an int64) of
     EXPRESSION_SIGNATURE: a direct call through a C function pointer."""
-    sig = types.float64(types.int64, types.int64, types.int64, inputs)
+    sig = types.float64(types.int64, consts, types.int64, types.int64, inputs)
 
     def codegen(context, builder, signature, args):
-        addr, k, c, values = args
+        addr, constants, load, component, values = args
         f64 = ir.DoubleType()
         i64 = ir.IntType(64)
-        fnty = ir.FunctionType(f64, [i64, i64] + [f64] * op.N_INPUTS)
+        data = context.make_array(signature.args[1])(context, builder, constants).data
+        fnty = ir.FunctionType(f64, [i64, i64, f64.as_pointer()] + [f64] * op.N_INPUTS)
         fn = builder.inttoptr(addr, fnty.as_pointer())
-        return builder.call(fn, [k, c] + [builder.extract_value(values, i) for i in range(op.N_INPUTS)])
+        return builder.call(fn, [load, component, data] + [builder.extract_value(values, i) for i in range(op.N_INPUTS)])
 
     return sig, codegen
 
 
-def call_formulas(address, load, component, inputs):
+def call_formulas(address, consts, load, component, inputs):
     """The value of the program of (``load``, ``component``) at ``inputs`` (a tuple of
-    ``N_INPUTS`` floats).  On the CPU ``address`` is the scene's compiled programs (a cfunc of
-    EXPRESSION_SIGNATURE, ``rotlab.scene.formulas``): the kernels see an integer, the same type for
-    every scene, and no Python object.  On a GPU it is the device address of the programs'
-    ``rotlab.core.formula_table``, which ``run_program`` interprets (the GPU cannot call the CPU's
-    function)."""
+    ``N_INPUTS`` floats), its constants ``consts`` (``Expressions.consts``).  On the CPU
+    ``address`` is the scene's compiled programs (a cfunc of EXPRESSION_SIGNATURE,
+    ``rotlab.scene.formulas``): the kernels see an integer, the same type for every scene, and no
+    Python object.  On a GPU it is the device address of the programs'
+    ``rotlab.core.formula_table``, which ``run_program`` interprets, the constants in the table
+    (the GPU cannot call the CPU's function)."""
     raise NotImplementedError("compiled code only")
 
 
 @overload(call_formulas, inline="always")
-def _call_formulas_cpu(address, load, component, inputs):
-    return lambda address, load, component, inputs: _call_address(address, load, component, inputs)
+def _call_formulas_cpu(address, consts, load, component, inputs):
+    return lambda address, consts, load, component, inputs: _call_address(address, consts, load, component, inputs)
 
 
 @gpu_overload(call_formulas, inline="always")
-def _call_formulas_gpu(address, load, component, inputs):
+def _call_formulas_gpu(address, consts, load, component, inputs):
     from numba.cuda.extending import intrinsic as cuda_intrinsic
 
     @cuda_intrinsic
@@ -114,7 +119,7 @@ def _call_formulas_gpu(address, load, component, inputs):
 
         return cuda_types.CPointer(cuda_types.float64)(cuda_types.int64), codegen
 
-    return lambda address, load, component, inputs: run_program(doubles_at(address), load, component, inputs)
+    return lambda address, consts, load, component, inputs: run_program(doubles_at(address), load, component, inputs)
 
 
 # ``rotlab.core.formula_table``'s layout, which ``run_program`` reads

@@ -253,7 +253,7 @@ def _expressions_impl(t, y, ex):
         return lambda t, y, ex: (0.0, 0.0, 0.0)
 
     def impl(t, y, ex):
-        return expression_torque(t, y, ex.rows, ex.fn, ex.axes, ex.axes_q, ex.moments)
+        return expression_torque(t, y, ex.rows, ex.fn, ex.consts, ex.axes, ex.axes_q, ex.moments)
 
     return impl
 
@@ -354,19 +354,19 @@ def expression_output(y, rows, k, axes, vx, vy, vz):
 
 
 @njit(cache=True)
-def expression_torque(t, y, rows, fn, axes, axes_q, moments):
+def expression_torque(t, y, rows, fn, consts, axes, axes_q, moments):
     """Σ over expression loads active at t of their torque, principal body frame; ``fn`` the
-    address of the scene's compiled formulas (``rotlab.scene.formulas``).  Called, not inlined
-    into ``rhs``: inlined, it would be typed again at every call site, and the formula loads'
-    typing is the largest of all."""
+    address of the scene's compiled formulas (``rotlab.scene.formulas``), ``consts`` their
+    constants.  Called, not inlined into ``rhs``: inlined, it would be typed again at every call
+    site, and the formula loads' typing is the largest of all."""
     nx = ny = nz = 0.0
     for k in range(rows.shape[0]):
         if not (rows[k, EX_ON] <= t < rows[k, EX_OFF]):
             continue
         x = expression_inputs(t, y, rows, k, axes, axes_q, moments)
-        vx = call_formulas(fn, k, 0, x)
-        vy = call_formulas(fn, k, 1, x)
-        vz = call_formulas(fn, k, 2, x)
+        vx = call_formulas(fn, consts, k, 0, x)
+        vy = call_formulas(fn, consts, k, 1, x)
+        vz = call_formulas(fn, consts, k, 2, x)
         mx, my, mz = expression_output(y, rows, k, axes, vx, vy, vz)
         nx += mx
         ny += my
@@ -414,7 +414,7 @@ def _drive_rotors(t, y, dy, c, n, drives):
     def impl(t, y, dy, c, n, drives):
         ex = drives.ex
         nx, ny, nz = plus_torque((0.0, 0.0, 0.0), n)  # (n, or 0 without a load that does work: the drives do work)
-        cx, cy, cz, nx, ny, nz = rotor_drives(t, y, dy, (c[0], c[1], c[2], nx, ny, nz), ex.rows, ex.fn, ex.axes, ex.axes_q,
+        cx, cy, cz, nx, ny, nz = rotor_drives(t, y, dy, (c[0], c[1], c[2], nx, ny, nz), ex.rows, ex.fn, ex.consts, ex.axes, ex.axes_q,
                                               ex.moments, drives.offset, drives.axes)
         return (cx, cy, cz), (nx, ny, nz)
 
@@ -422,14 +422,14 @@ def _drive_rotors(t, y, dy, c, n, drives):
 
 
 @njit(cache=True)
-def rotor_drives(t, y, dy, torques, rows, fn, axes, axes_q, moments, offset, rotor_axes):
+def rotor_drives(t, y, dy, torques, rows, fn, consts, axes, axes_q, moments, offset, rotor_axes):
     """``drive_rotors`` of the drives' formula rows ``rows`` (programs' loads ``offset`` …) and
     unit axes ``rotor_axes`` (principal frame).  Called, not inlined (a formula's typing is costly)."""
     cx, cy, cz, nx, ny, nz = torques
     p, q, r = y[P0], y[P0 + 1], y[P0 + 2]
     hx = hy = hz = 0.0
     for j in range(rotor_axes.shape[0]):
-        u = call_formulas(fn, offset + j, 0, expression_inputs(t, y, rows, j, axes, axes_q, moments))
+        u = call_formulas(fn, consts, offset + j, 0, expression_inputs(t, y, rows, j, axes, axes_q, moments))
         dy[STATE_SIZE + j] = u
         h = y[STATE_SIZE + j]
         ax, ay, az = rotor_axes[j, 0], rotor_axes[j, 1], rotor_axes[j, 2]

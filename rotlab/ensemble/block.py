@@ -160,7 +160,7 @@ def event_inputs(scene: Scene) -> tuple[EventInputs | None, CompiledEvents | Non
     rates_only = np.zeros((len(specs), 1 + max(len(spec.record) for spec in specs)), dtype=np.bool_)
     for k, flags in enumerate(compiled.rates_only):
         rates_only[k, :len(flags)] = flags
-    return EventInputs(compiled.fn, compiled.rows, compiled.axes, compiled.axes_q, compiled.moments,
+    return EventInputs(compiled.fn, compiled.consts, compiled.rows, compiled.axes, compiled.axes_q, compiled.moments,
                        np.array([DIRECTIONS[spec.direction] for spec in specs], dtype=np.int64),
                        np.array([len(spec.record) for spec in specs], dtype=np.int64), rates_only,
                        np.array([min(spec.count, MAX_COUNT) if spec.terminal else 0 for spec in specs], dtype=np.int64), compiled.table,

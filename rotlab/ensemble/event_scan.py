@@ -51,6 +51,7 @@ class EventInputs(NamedTuple):
     ``if events is None`` is decided while compiling)."""
 
     fn: int  # the generated function's address
+    consts: np.ndarray  # the formulas' constants (``rotlab.scene.formulas.constant_values``)
     rows: np.ndarray  # (E, EX_COLUMNS): each event's ``up``
     axes: np.ndarray  # (3, 3) user's body axes in principal components
     axes_q: np.ndarray  # (4,)
@@ -118,7 +119,7 @@ def _device_event_scratch_gpu(count):
 
 @njit(cache=True, inline="always")
 def _value(events, k, formula, t, y):
-    return formula_value(events.fn, events.rows, k, formula, t, y, events.axes, events.axes_q, events.moments,
+    return formula_value(events.fn, events.consts, events.rows, k, formula, t, y, events.axes, events.axes_q, events.moments,
                          events.rates_only[k, formula])
 
 
@@ -166,12 +167,12 @@ def scan_events(method, solver, model, events, times, rows, stop, found, fault, 
     test per row and event of what it reads cost ~60)."""
     if events is None:
         return stop
-    fn, ex_rows, axes, axes_q, moments, direction, _, rates_only, _, _, _ = events
+    fn, consts, ex_rows, axes, axes_q, moments, direction, _, rates_only, _, _, _ = events
     g, g_now, values = s.g, s.g_now, s.values
     for r0 in range(1, stop, values.shape[1]):
         r1 = min(stop, r0 + values.shape[1])
         for k in range(g.shape[0]):
-            formula_values(fn, ex_rows, k, 0, times[r0:r1], rows[r0:r1], axes, axes_q, moments, rates_only[k, 0], values[k])
+            formula_values(fn, consts, ex_rows, k, 0, times[r0:r1], rows[r0:r1], axes, axes_q, moments, rates_only[k, 0], values[k])
         for r in range(r0, r1):
             crossed = False
             for k in range(g.shape[0]):

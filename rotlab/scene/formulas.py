@@ -2,9 +2,12 @@
 validated postfix programs (``rotlab.config.expressions``; user text is never executed), compiled
 by numba as a ``cfunc`` of ``rotlab.core.expressions.EXPRESSION_SIGNATURE``:
 
-    value = f(load, component, t, ω₀, ω₁, ω₂, λ₀, λ₁, λ₂, λ₃, γ₀, γ₁, γ₂, L₀, L₁, L₂)
+    value = f(load, component, c, t, ω₀, ω₁, ω₂, λ₀, λ₁, λ₂, λ₃, γ₀, γ₁, γ₂, L₀, L₁, L₂)
 
-The source is written once per distinct set of programs to ``<cache>/rotlab_formulas_<hash>.py``
+The source reads the programs' constants from ``c`` (``constant_values``: every CONST argument,
+in order), so it depends on the programs' operations only: the cases of a sweep over a load's
+gain or a formula's named constant share one function, compiled once.  It is written once per
+distinct set of operations to ``<cache>/rotlab_formulas_<hash>.py``
 (``$ROTLAB_CACHE``, else ``$XDG_CACHE_HOME/rotlab`` or ``~/.cache/rotlab``; a temporary directory
 when none is writable) by temp file + rename, and numba caches its compilation beside it.
 """
@@ -18,6 +21,8 @@ import sys
 import tempfile
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from rotlab.core import opcodes as op
 
@@ -37,18 +42,21 @@ from rotlab.core.faults import checked_formula
 
 
 @cfunc(EXPRESSION_SIGNATURE, cache=True)
-def formulas(load, component, {args}):
+def formulas(load, component, c, {args}):
 '''
 _STATE_INPUTS = "x0, x1, x2, x3, x4, x5, x6, x7"  # t, ω, Λ: what a fault records
 _memo: dict[str, Any] = {}  # also keeps each compiled function alive: kernels hold only its address
 
 
-def source_of(program: Program) -> str:
-    """The Python expression of a postfix program (inputs named x0 … x13)."""
+def source_of(program: Program, first_constant: int = 0) -> str:
+    """The Python expression of a postfix program (inputs named x0 … x13; its constants
+    c[first_constant], c[first_constant + 1], … in order)."""
     stack: list[str] = []
+    constant = first_constant
     for opcode, arg in program:
         if opcode == op.CONST:
-            stack.append(f"({float(arg)!r})")
+            stack.append(f"c[{constant}]")
+            constant += 1
         elif opcode == op.VAR:
             stack.append(f"x{int(arg)}")
         elif opcode == op.NEG:
@@ -69,17 +77,26 @@ def module_source(loads: list[list[Program]], checked: bool = True) -> str:
     number).  ``checked``: a value that is not finite is recorded as the load's fault
     (``rotlab.core.faults``); events check their values themselves."""
     lines = [_HEADER.format(args=", ".join(f"x{i}" for i in range(op.N_INPUTS)))]
+    constant = 0
     for k, programs in enumerate(loads):
         lines.append(f"    if load == {k}:\n")
         for c, program in enumerate(programs):
-            value = f"checked_formula({source_of(program)}, {k}, {c}, {_STATE_INPUTS})" if checked else source_of(program)
+            text = source_of(program, constant)
+            constant += sum(1 for opcode, _ in program if opcode == op.CONST)
+            value = f"checked_formula({text}, {k}, {c}, {_STATE_INPUTS})" if checked else text
             lines.append(f"        if component == {c}:\n            return {value}\n")
     lines.append("    return 0.0\n")
     return "".join(lines)
 
 
+def constant_values(loads: list[list[Program]]) -> np.ndarray:
+    """The programs' constants as ``module_source``'s function reads them (its ``c``)."""
+    return np.array([arg for programs in loads for program in programs for opcode, arg in program if opcode == op.CONST], dtype=float)
+
+
 def compiled(loads: list[list[Program]], checked: bool = True) -> Any:
-    """The numba cfunc of ``module_source(loads, checked)`` (imported from the cache, written if new)."""
+    """The numba cfunc of ``module_source(loads, checked)`` (imported from the cache, written if
+    new); it takes ``constant_values(loads)``."""
     text = module_source(loads, checked)
     key = hashlib.sha256(text.encode()).hexdigest()[:20]
     if key not in _memo:

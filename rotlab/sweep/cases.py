@@ -116,17 +116,26 @@ def _key_type(base: cfg.Scenario, path: str) -> Any:
                 raise InputError(parameter_key(path), f"index [{part}] is out of range")
             obj, annotation = obj[part], _element(annotation, part)
             continue
+        if isinstance(obj, dict):  # a table of the user's own keys (a formula's constants): the base names them
+            if part not in obj:
+                raise InputError(parameter_key(path), f"unknown key '{part}': {_hint(part, list(obj), 'the scenario gives')}")
+            obj, annotation = obj[part], _element(annotation, 1)
+            continue
         fields = type(obj).model_fields if isinstance(obj, BaseModel) else {}
         if part not in fields:
-            close = difflib.get_close_matches(part, list(fields), n=1)
-            hint = f"did you mean '{close[0]}'?" if close else f"allowed keys: {', '.join(fields)}" if fields else "it has no keys"
-            raise InputError(parameter_key(path), f"unknown key '{part}': {hint}")
+            raise InputError(parameter_key(path), f"unknown key '{part}': {_hint(part, list(fields), 'allowed keys')}")
         obj, annotation = getattr(obj, part), fields[part].annotation
     return annotation
 
 
+def _hint(part: str, keys: list[str], which: str) -> str:
+    close = difflib.get_close_matches(part, keys, n=1)
+    return f"did you mean '{close[0]}'?" if close else f"{which}: {', '.join(keys)}" if keys else "it has no keys"
+
+
 def _element(annotation: Any, index: int) -> Any:
-    """The type of element ``index`` of a tuple or list type (None where it cannot be told)."""
+    """The type of element ``index`` of a tuple or list type, or of a dict's values for index 1
+    (None where it cannot be told)."""
     origin, args = get_origin(annotation), get_args(annotation)
     if origin is Annotated:
         return _element(args[0], index)
@@ -137,6 +146,8 @@ def _element(annotation: Any, index: int) -> Any:
         return args[0] if Ellipsis in args else args[index] if index < len(args) else None
     if origin is list and args:
         return args[0]
+    if origin is dict and args and index == 1:
+        return args[1]
     return None
 
 
