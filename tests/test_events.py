@@ -226,6 +226,34 @@ def test_a_root_at_the_start_of_its_sample_interval_is_an_occurrence():
     assert traj.events["lg"].count == 1 and abs(traj.events["lg"].t[0] - 7.194) <= 1e-12
 
 
+def test_a_fixed_step_run_a_terminal_event_may_end_is_not_refused_for_its_whole_spans_steps():
+    """rk4 at h = 1 ms over dzhanibekov.toml's 30 s needs 30,000 steps, beyond max_steps = 10,000:
+    refused before stepping without a terminal event, but a terminal flip ends the run at
+    t = 1.67 s, so it runs; a fifth flip, which the budget does not reach, stops the run on its
+    budget with the valid samples kept. Alone and in the ensemble kernels alike."""
+    from rotlab.ensemble.block import run_block
+    from rotlab.methods.base import Settings
+    from rotlab.methods.registry import get_method
+    from rotlab.scene.scene import build_scene
+
+    budget = {"solver.step": 1e-3, "solver.max_steps": 10000}
+    with pytest.raises(rotlab.InputError, match=r"solver\.max_steps: rk4 needs 3e\+04 steps"):
+        rotlab.simulate(CONFIGS / "dzhanibekov.toml", method="rk4", overrides=budget)
+    for count, ok in ((1, True), (5, False)):
+        flip = {"name": "flip", "when": "omega[1]", "direction": "falling", "terminal": True, "count": count}
+        scenario = rotlab.load(CONFIGS / "dzhanibekov.toml", method="rk4", overrides={**budget, "events": [flip]})
+        traj = rotlab.simulate(scenario, check=False)
+        assert traj.ok == ok
+        if ok:
+            assert "event 'flip' (occurrence 1)" in traj.stats.details["ended by"] and 1.6 < traj.t[-1] < 1.7
+        else:
+            assert traj.stats.failure == "step budget of 10,000 steps exhausted at t = 10 s (raise solver.max_steps)"
+            assert traj.t[-1] == 10.0 and traj.stats.steps == 10000 and traj.events["flip"].count == 2
+        block = run_block([build_scene(scenario)], get_method("rk4"), Settings.of(scenario.solver), scenario.time.sample_times(), [0], 1, [None])
+        assert block.failure[0] == traj.stats.failure and block.steps[0] == traj.stats.steps
+        assert np.array_equal(block.kept[0][1], traj._state)
+
+
 def test_a_run_a_terminal_event_ends_is_not_judged_by_its_whole_spans_pace():
     """A heavy top at rtol 1e-13 steps ~1 ms: over its 1,000-s span that pace needs ~10⁶ steps,
     beyond solver.max_steps = 30,000, which stopped it after its first 4,096 steps ("no progress")

@@ -127,12 +127,15 @@ class FixedStepMethod:
 
     def sampling(self, scene: Scene, t: np.ndarray, settings: Settings, order: int) -> tuple[int, dict[str, object]]:
         """(steps per sample interval, the run's details) for ``scene`` over the sample times ``t``;
-        an ``InputError`` when the run would need more than ``solver.max_steps`` (known before stepping)."""
+        an ``InputError`` when the run would need more than ``solver.max_steps`` (known before
+        stepping, unless a terminal event may end the run sooner: the budget then stops it while
+        it steps, as an adaptive method's)."""
         interval = float(t[1] - t[0])
         h = self.step(scene, t, settings, order)
         substeps = max(1, math.ceil(interval / h - 1e-9))
         needed = substeps * (t.shape[0] - 1)
-        if needed > settings.max_steps:  # known before stepping: refuse rather than run into the budget
+        ends_early = any(event.terminal for event in scene.scenario.events)
+        if needed > settings.max_steps and not ends_early:  # known before stepping: refuse rather than run into the budget
             raise InputError(
                 "solver.max_steps",
                 f"{self.name} needs {needed:.3g} steps of {interval / substeps:.3g} s for this span, beyond max_steps = "
