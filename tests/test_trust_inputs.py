@@ -89,7 +89,8 @@ def test_a_reversed_sweep_range_is_refused_by_validate(cli, write, draw):
 @pytest.mark.parametrize("parameters, line_ends", [
     ('"initial.omega[0]" = [0.001, nan]', 'sweep.parameters."initial.omega[0]"[1]: must be a finite number, found nan'),
     ('"initial.omega[0]" = [0.001, 1e200]', 'sweep.parameters."initial.omega[0]"[1]: must be at most 1e30 in magnitude (found 1e+200): use SI units of a real body'),
-    ('"initial.omega[0]" = [0.001, "a"]', "sweep.parameters.\"initial.omega[0]\"[1]: must be a number, found 'a'"),
+    ('"initial.omega[0]" = [0.001, "a"]', "sweep.parameters.\"initial.omega[0]\"[1]: must be a number, or a list of numbers for a vector key, found 'a'"),
+    ('"initial.omega" = [[1, 2, 3], "x"]', "sweep.parameters.\"initial.omega\"[1]: must be a number, or a list of numbers for a vector key, found 'x'"),
     ('"initial.omega" = [[0.1, 0.2, 0.3], [0.1, "x", 0.3]]', "sweep.parameters.\"initial.omega\"[1][1]: must be a number, found 'x'"),
     ('"initial.omega[1]" = []', 'sweep.parameters."initial.omega[1]": a grid needs at least one value'),
     ('"initial.omega[0]" = [0.1, []]', 'sweep.parameters."initial.omega[0]"[1]: must be a number, as the key holds, found []'),

@@ -883,7 +883,11 @@ Distribution = Union[Uniform, LogUniform, Normal, Sphere]
 
 def _grid_number(value: object) -> object:
     """A grid's number as ``Real`` checks it, an integer kept an integer (a case's integer key,
-    such as solver.order, takes no float)."""
+    such as solver.order, takes no float).  A value that is neither a number nor a list is
+    refused as either (which one its key takes is checked with the scenario: ``sweep.cases``)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise PydanticCustomError("grid_value", "must be a number, or a list of numbers for a vector key, found {found}",
+                                  {"found": repr(value)[:40]})
     number = _real(value)
     return value if isinstance(value, int) else number
 
