@@ -4,7 +4,7 @@ check of every sample); with the flip (``omega[1]`` falling: the check and the l
 occurrence by Brent's method on the method's own local solution); with a Poincaré section (the
 flip recording two values).
 
-    python benchmarks/bench_events.py [--repeats 7] [--end 200] [--cases 128]
+    python benchmarks/bench_events.py [--repeats 7] [--end 200] [--cases 128] [--lyapunov-only]
 
 Problem: configs/dzhanibekov.toml over ``--end`` seconds at 200 samples/s (40,001 samples and 33
 falling flips at 200 s).  Columns: the plain run (median of ``--repeats`` runs, interleaved with
@@ -48,7 +48,11 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--end", type=float, default=200.0)
     parser.add_argument("--cases", type=int, default=128)
+    parser.add_argument("--lyapunov-only", action="store_true", help="only the last table: what a Lyapunov exponent costs")
     args = parser.parse_args()
+    if args.lyapunov_only:
+        lyapunov_cost(max(3, args.repeats // 2))
+        return
     print(f"dzhanibekov.toml, {args.end:g} s at 200 samples/s; median of {args.repeats} runs each, interleaved\n")
     print("| method | steps | plain run (ms) | per step (ns) | samples per step | check per sample (ns) | check / plain run "
           "| location per occurrence (µs) | + section, whole |")

@@ -30,8 +30,11 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
+from numba import literally, njit
 
 from rotlab.config.models import Scenario
+from rotlab.core.kernel_status import OK, state_status
+from rotlab.ensemble.method_calls import local_state
 from rotlab.errors import RunFailure
 
 DELTA = 1e-8  # the finite difference of the tangent map, in the scaled norm
@@ -72,7 +75,7 @@ def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, 
     """The maximal Lyapunov exponent of ``scenario`` (object or file) over ``duration`` (s, else
     its own span), renormalised at every sample (module docstring)."""
     from rotlab.api import _plan, scenario_of
-    from rotlab.core.kernel_status import OK, state_status
+    from rotlab.ensemble.method_calls import call_for_method, local_scratch, local_solver
     from rotlab.methods.registry import get_method
     from rotlab.methods.stepping import state_failure_after
     from rotlab.scene.scene import build_scene
@@ -83,23 +86,18 @@ def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, 
     if chosen.name == "exact":
         stand_in = next(get_method(name) for name in CLOSED_FORM_STAND_INS if get_method(name).unsupported(scene) is None)
         chosen, why = stand_in, f"{stand_in.name} at the scenario's tolerances (exact's closed form cannot start from a neighbouring state)"
-    flow = chosen.local_solution(scene, t, settings)
     omega_scale = scene.rate_scale or 1.0
-    scale = np.r_[np.ones(4), np.full(3, omega_scale), 1.0]  # the state's units: Λ, ω (rad/s), W
+    scale = np.r_[np.ones(4), np.full(3, omega_scale)]  # the units of the state's Λ and ω (rad/s)
     x = scene.state0.copy()
     v = np.random.default_rng(SEED).standard_normal(x.shape[0])
-    v = _unit(_tangent(v, x), scale)
+    _tangent(v, x)
+    v /= _scaled_norm(v, scale)
     growth = np.empty(t.shape[0] - 1)
-    for k in range(t.shape[0] - 1):
-        t0, t1 = float(t[k]), float(t[k + 1])
-        after, neighbour = flow(x, t0, t1), flow(x + DELTA * v, t0, t1)
-        status = next((s for s in (state_status(after), state_status(neighbour)) if s != OK), OK)  # (a run's rule, and its words)
-        if status != OK:
-            raise RunFailure(f"{state_failure_after(status, t0, t1, x)}: no exponent")
-        w = _tangent((neighbour - after) / DELTA, after)
-        size = _norm(w, scale)
-        growth[k] = math.log(size)
-        x, v = after, w / size
+    times = np.ascontiguousarray(t, dtype=float)
+    status, k = call_for_method(_renormalised, chosen.name, local_solver(chosen, scene, times, settings), scene.model, times, x, v, scale, growth,
+                              local_scratch(x.shape[0]), local_scratch(x.shape[0]))
+    if status != OK:  # (a run's rule, and its words)
+        raise RunFailure(f"{state_failure_after(status, float(t[k]), float(t[k + 1]), x)}: no exponent")
     elapsed = np.asarray(t[1:], dtype=float) - float(t[0])
     history = np.cumsum(growth) / elapsed
     return Lyapunov(float(history[-1]), elapsed + float(t[0]), history, why, float(t[1] - t[0]), omega_scale)
@@ -151,18 +149,50 @@ def divergence(scenario: Scenario | str | Path, *, duration: float | None = None
         here = run(t0, q, w)
 
 
-def _tangent(d: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``d`` without its Λ component along Λ (tangent to |Λ| = const), and without the work W."""
-    out = d.copy()
-    q = x[0:4]
-    out[0:4] -= (out[0:4] @ q) / (q @ q) * q
-    out[7:] = 0.0
-    return out
+@njit(cache=True)
+def _renormalised(method, solver, model, t, x, v, scale, growth, a, b):
+    """Benettin's loop (module docstring) over the sample times ``t`` from the state ``x`` and the
+    unit deviation ``v`` (both updated in place), the flow ``local_state`` of the method named
+    ``method`` (``solver`` its settings; ``a``, ``b``: ``LocalScratch`` of the two solutions):
+    growth[k] = ln s_k.  (OK, n − 1), or (status, k) where a solution over [t_k, t_k+1] is not a
+    valid state (``state_status``), x then still the state at t_k."""
+    width = x.shape[0]
+    shifted, w = np.empty(width), np.empty(width)
+    for k in range(t.shape[0] - 1):
+        for j in range(width):
+            shifted[j] = x[j] + DELTA * v[j]
+        local_state(literally(method), solver, model, x, t[k], t[k + 1], a)
+        local_state(literally(method), solver, model, shifted, t[k], t[k + 1], b)
+        status = state_status(a.y)
+        if status == OK:
+            status = state_status(b.y)
+        if status != OK:
+            return status, k
+        for j in range(width):
+            w[j] = (b.y[j] - a.y[j]) / DELTA
+        _tangent(w, a.y)
+        size = _scaled_norm(w, scale)
+        growth[k] = math.log(size)
+        for j in range(width):
+            x[j], v[j] = a.y[j], w[j] / size
+    return OK, t.shape[0] - 1
 
 
-def _norm(d: np.ndarray, scale: np.ndarray) -> float:
-    return float(np.sqrt(np.sum((d[:7] / scale[:7]) ** 2)))
+@njit(cache=True, inline="always")
+def _tangent(d, x):
+    """``d`` without its Λ component along Λ (tangent to |Λ| = const) and without the work W
+    (and rotors' momenta), in place."""
+    along = (d[0] * x[0] + d[1] * x[1] + d[2] * x[2] + d[3] * x[3]) / (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3])
+    for j in range(4):
+        d[j] -= along * x[j]
+    for j in range(7, d.shape[0]):
+        d[j] = 0.0
 
 
-def _unit(d: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    return d / _norm(d, scale)
+@njit(cache=True, inline="always")
+def _scaled_norm(d, scale):
+    """‖(δΛ, δω)‖ = √(|δΛ|² + |δω|²/Ω²): ``scale`` (1, 1, 1, 1, Ω, Ω, Ω)."""
+    total = 0.0
+    for j in range(7):
+        total += (d[j] / scale[j]) ** 2
+    return math.sqrt(total)

@@ -26,6 +26,7 @@ from rotlab.ensemble import observe as ob
 from rotlab.ensemble.cross_check import GpuDisagreement, checked_cases, disagreement, library_calls
 from rotlab.ensemble.event_scan import BETWEEN_FAULT, FAULT_COLUMNS, FAULT_EVENT, FAULT_FORMULA, FAULT_KIND, FAULT_T0, FAULT_T1, \
     FOUND_COLUMNS, NO_FAULT, TERMINAL, EventInputs
+from rotlab.ensemble.method_calls import call_for_method
 from rotlab.errors import InputError, RunFailure, first_line
 from rotlab.methods.base import Settings
 from rotlab.methods.stepping import CHUNK_STEPS, budget_message, stall_message, state_failure_after, step_floor_message
@@ -295,9 +296,9 @@ def run_block(scenes: list[Scene], method, settings: Settings, t: np.ndarray, ke
                                         *inputs, events, found, fault, *outputs)
         else:
             with parallel_chunksize(1):
-                kernels.run_fixed_step_ensemble(method.name, y0, t, substeps, settings.max_steps, *kernels.parallel_model(scene.model),
-                                                kernels.thread_grids(min(n, kernels.WINDOW + 1)), method.kernel_args(scene, order), *inputs, events,
-                                                found, fault, *outputs)
+                call_for_method(kernels.fixed_step_ensemble, method.name, y0, t, substeps, settings.max_steps, *kernels.parallel_model(scene.model),
+                                kernels.thread_grids(min(n, kernels.WINDOW + 1)), method.kernel_args(scene, order), *inputs, events, found, fault,
+                                *outputs)
         rejected = np.zeros(b, dtype=np.int64)
         evaluations = steps * method.evaluations_per_step(scene, order)
         clocks[:, 0] = t[np.maximum(valid, 1) - 1]  # (a fixed step's run ends at a sample)

@@ -34,27 +34,6 @@ from rotlab.ensemble.method_calls import advance_of
 from rotlab.ensemble.observe import ACC_COLUMNS, constants_of, observe_rows
 from rotlab.core.model import Expressions, Model
 
-_ENTRIES: dict[tuple, object] = {}  # (method, argument types) → the compiled entry of ``fixed_step_ensemble``
-
-
-def run_fixed_step_ensemble(method: str, *args: object) -> None:
-    """``fixed_step_ensemble(method, *args)``.  A call through the dispatcher with a string types
-    the whole kernel before ``literally`` asks for the literal's specialization (~0.1 s a call):
-    after the first call of each (method, argument types), the specialization's compiled entry
-    is called directly (numba's ``Dispatcher.overloads``; the dispatcher again should it be missing)."""
-    from numba import typeof
-
-    key = (method, tuple(typeof(a) for a in args))
-    entry = _ENTRIES.get(key)
-    if entry is not None:
-        entry(method, *args)
-        return
-    fixed_step_ensemble(method, *args)
-    for signature, compiled in getattr(fixed_step_ensemble, "overloads", {}).items():
-        if signature[0] == types.literal(method) and tuple(signature[1:]) == key[1]:
-            _ENTRIES[key] = compiled.entry_point
-
-
 def own(x):
     """A copy of an array (anything else as it is)."""
     raise NotImplementedError("compiled code only")

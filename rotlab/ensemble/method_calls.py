@@ -11,14 +11,66 @@ fails to save it again: ``ReferenceError``).
         run's own steps from the state y0 at t0), ``solver`` its settings:
         fixed-step (substeps, extra); dop853 (rtol, atol, max_steps);
         taylor (order, rtol, atol, max_steps, c0, T, lever_force, flags)
+        (``local_solver`` makes it from Python; ``LocalScratch`` is the scratch it writes)
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
 from numba import types
 
 from rotlab.core.dynamics import store_vector
 from rotlab.core.targets import overload
+
+
+class LocalScratch(NamedTuple):
+    """What ``local_state`` writes (``rotlab.ensemble.event_scan.EventScratch`` has these too)."""
+
+    y: np.ndarray  # (state,) the local solution
+    grid: np.ndarray  # (2,)
+    out: np.ndarray  # (2, state)
+    counters: np.ndarray  # (3,) int64 (discarded)
+
+
+def local_scratch(width: int) -> LocalScratch:
+    return LocalScratch(np.zeros(width), np.zeros(2), np.zeros((2, width)), np.zeros(3, dtype=np.int64))
+
+
+def local_solver(method, scene, t: np.ndarray, settings) -> tuple:
+    """``local_state``'s ``solver`` for ``method`` (a ``Method`` with an ensemble kernel) on
+    ``scene`` over the sample times ``t`` at ``settings``: the run's own steps, as its kernels
+    take them (``Method.local_solution``)."""
+    if method.name == "dop853":
+        return settings.rtol, settings.atol, settings.max_steps
+    if method.name == "taylor":
+        return (method.checked_order(settings), settings.rtol, settings.atol, settings.max_steps, *method.constants(scene))
+    order = method.order(settings)
+    substeps, _ = method.sampling(scene, t, settings, order)
+    return substeps, method.kernel_args(scene, order)
+
+
+_ENTRIES: dict[tuple, object] = {}  # (function, method, argument types) → its compiled entry
+
+
+def call_for_method(function, method: str, *args: object) -> object:
+    """``function(method, *args)`` for a compiled ``function`` whose first argument names a method
+    (``literally``).  A call through the dispatcher with a string types the whole function before
+    ``literally`` asks for the literal's specialization (~0.1 s a call): after the first call of
+    each (function, method, argument types), the specialization's compiled entry is called
+    directly (numba's ``Dispatcher.overloads``; the dispatcher again should it be missing)."""
+    from numba import typeof
+
+    key = (function, method, tuple(typeof(a) for a in args))
+    entry = _ENTRIES.get(key)
+    if entry is not None:
+        return entry(method, *args)
+    result = function(method, *args)
+    for signature, compiled in getattr(function, "overloads", {}).items():
+        if signature[0] == types.literal(method) and tuple(signature[1:]) == key[2]:
+            _ENTRIES[key] = compiled.entry_point
+    return result
 
 
 def advance_of(method, y, times, rows, i, substeps, budget, model, extra):
