@@ -13,6 +13,7 @@ from __future__ import annotations
 import ast
 import math
 import threading
+from functools import lru_cache
 
 from rotlab.core import opcodes as op
 
@@ -61,18 +62,25 @@ def parse_formula(text: str, constants: dict[str, float], max_nodes: int = MAX_N
         raise FormulaError(0, f"formula of {len(text):,} characters is beyond the limit of {MAX_LENGTH}: split it with named constants")
     if not text.strip():
         raise FormulaError(0, "empty formula: write a formula (0 for a value that is always zero)")
+    code: Program = []
+    depth = _emit(_tree(text.strip(), max_nodes).body, {**BUILTIN_CONSTANTS, **constants}, code, 0)
+    return code, depth
+
+
+@lru_cache(maxsize=1024)
+def _tree(text: str, max_nodes: int) -> ast.Expression:
+    """The syntax tree of ``text`` within ``max_nodes`` nodes, parsed once per text (the cases of a
+    sweep over a constant parse the same formulas; ``_emit`` only reads the tree)."""
     try:
         with _PARSING:
-            tree = ast.parse(text.strip(), mode="eval")
+            tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
         raise FormulaError(exc.offset or 0, f"syntax error ({exc.msg})") from None
     except (RecursionError, MemoryError, ValueError):
         raise FormulaError(0, f"formula nested too deeply (limit {MAX_DEPTH} levels)") from None
     if sum(1 for _ in ast.walk(tree)) > max_nodes:
         raise FormulaError(0, f"formula has more than {max_nodes} terms: split it with named constants")
-    code: Program = []
-    depth = _emit(tree.body, {**BUILTIN_CONSTANTS, **constants}, code, 0)
-    return code, depth
+    return tree
 
 
 def _col(node: ast.AST) -> int:

@@ -46,6 +46,7 @@ def formulas(load, component, c, {args}):
 '''
 _STATE_INPUTS = "x0, x1, x2, x3, x4, x5, x6, x7"  # t, ω, Λ: what a fault records
 _memo: dict[str, Any] = {}  # also keeps each compiled function alive: kernels hold only its address
+_by_operations: dict[tuple, Any] = {}  # ``compiled``'s functions by the programs' operations
 
 
 def source_of(program: Program, first_constant: int = 0) -> str:
@@ -96,7 +97,12 @@ def constant_values(loads: list[list[Program]]) -> np.ndarray:
 
 def compiled(loads: list[list[Program]], checked: bool = True) -> Any:
     """The numba cfunc of ``module_source(loads, checked)`` (imported from the cache, written if
-    new); it takes ``constant_values(loads)``."""
+    new); it takes ``constant_values(loads)``.  Kept per process by the programs' operations (a
+    sweep's cases ask again for the function of their programs, their constants aside)."""
+    operations = (checked, tuple(tuple(tuple((opcode, None if opcode == op.CONST else arg) for opcode, arg in program)
+                                       for program in programs) for programs in loads))
+    if operations in _by_operations:
+        return _by_operations[operations]
     text = module_source(loads, checked)
     key = hashlib.sha256(text.encode()).hexdigest()[:20]
     if key not in _memo:
@@ -112,6 +118,7 @@ def compiled(loads: list[list[Program]], checked: bool = True) -> Any:
         sys.modules[name] = module
         spec.loader.exec_module(module)  # type: ignore[union-attr]
         _memo[key] = module.formulas
+    _by_operations[operations] = _memo[key]
     return _memo[key]
 
 
