@@ -25,6 +25,7 @@ A scenario's ``[[events]]`` are not evaluated (a terminal event does not end the
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
@@ -38,6 +39,7 @@ from rotlab.ensemble.method_calls import local_state
 from rotlab.errors import RunFailure
 
 DELTA = 1e-8  # the finite difference of the tangent map, in the scaled norm
+CALL_SECONDS = 0.05  # the compiled loop's calls last about this long (the number of intervals a call doubles or halves)
 SEED = 20261126  # the first deviation's direction: reproducible
 CLOSED_FORM_STAND_INS = ("taylor", "dop853")  # measured instead of ``exact`` (module docstring)
 
@@ -75,12 +77,13 @@ def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, 
     """The maximal Lyapunov exponent of ``scenario`` (object or file) over ``duration`` (s, else
     its own span), renormalised at every sample (module docstring)."""
     from rotlab.api import _plan, scenario_of
-    from rotlab.ensemble.method_calls import call_for_method, local_scratch, local_solver
+    from rotlab.ensemble.method_calls import entry_for_method, local_scratch, local_solver
     from rotlab.methods.registry import get_method
     from rotlab.methods.stepping import state_failure_after
     from rotlab.scene.scene import build_scene
 
-    scene = build_scene(scenario_of(scenario, duration=duration, overrides=overrides))
+    scenario = scenario_of(scenario, duration=duration, overrides=overrides)
+    scene = build_scene(scenario.model_copy(update={"events": []}))  # (not evaluated: a terminal one must not lift the step budget's check)
     chosen, reason, settings, t = _plan(scene)
     why = f"{chosen.name} ({reason})"
     if chosen.name == "exact":
@@ -94,10 +97,16 @@ def lyapunov(scenario: Scenario | str | Path, *, duration: float | None = None, 
     v /= _scaled_norm(v, scale)
     growth = np.empty(t.shape[0] - 1)
     times = np.ascontiguousarray(t, dtype=float)
-    status, k = call_for_method(_renormalised, chosen.name, local_solver(chosen, scene, times, settings), scene.model, times, x, v, scale, growth,
-                              local_scratch(x.shape[0]), local_scratch(x.shape[0]))
-    if status != OK:  # (a run's rule, and its words)
-        raise RunFailure(f"{state_failure_after(status, float(t[k]), float(t[k + 1]), x)}: no exponent")
+    args = (local_solver(chosen, scene, times, settings), scene.model, times, x, v, scale, growth, local_scratch(x.shape[0]),
+            local_scratch(x.shape[0]))
+    renormalised = entry_for_method(_renormalised, chosen.name, *args, 0, 0)
+    k, chunk = 0, 1
+    while k < growth.shape[0]:  # in calls of about CALL_SECONDS: Ctrl-C is heard between them
+        started = time.perf_counter()
+        status, k = renormalised(chosen.name, *args, k, min(growth.shape[0], k + chunk))
+        if status != OK:  # (a run's rule, and its words)
+            raise RunFailure(f"{state_failure_after(status, float(t[k]), float(t[k + 1]), x)}: no exponent")
+        chunk = chunk * 2 if time.perf_counter() - started < CALL_SECONDS / 2 else max(1, chunk // 2)
     elapsed = np.asarray(t[1:], dtype=float) - float(t[0])
     history = np.cumsum(growth) / elapsed
     return Lyapunov(float(history[-1]), elapsed + float(t[0]), history, why, float(t[1] - t[0]), omega_scale)
@@ -150,15 +159,16 @@ def divergence(scenario: Scenario | str | Path, *, duration: float | None = None
 
 
 @njit(cache=True)
-def _renormalised(method, solver, model, t, x, v, scale, growth, a, b):
-    """Benettin's loop (module docstring) over the sample times ``t`` from the state ``x`` and the
-    unit deviation ``v`` (both updated in place), the flow ``local_state`` of the method named
-    ``method`` (``solver`` its settings; ``a``, ``b``: ``LocalScratch`` of the two solutions):
-    growth[k] = ln s_k.  (OK, n − 1), or (status, k) where a solution over [t_k, t_k+1] is not a
-    valid state (``state_status``), x then still the state at t_k."""
+def _renormalised(method, solver, model, t, x, v, scale, growth, a, b, start, stop):
+    """Benettin's loop (module docstring) over the sample intervals [t_k, t_k+1], k = start …
+    stop − 1, from the state ``x`` at t_start and the unit deviation ``v`` (both updated in place),
+    the flow ``local_state`` of the method named ``method`` (``solver`` its settings; ``a``,
+    ``b``: ``LocalScratch`` of the two solutions): growth[k] = ln s_k.  (OK, stop), or (status, k)
+    where a solution over [t_k, t_k+1] is not a valid state (``state_status``), x then still the
+    state at t_k."""
     width = x.shape[0]
     shifted, w = np.empty(width), np.empty(width)
-    for k in range(t.shape[0] - 1):
+    for k in range(start, stop):
         for j in range(width):
             shifted[j] = x[j] + DELTA * v[j]
         local_state(literally(method), solver, model, x, t[k], t[k + 1], a)
@@ -175,7 +185,7 @@ def _renormalised(method, solver, model, t, x, v, scale, growth, a, b):
         growth[k] = math.log(size)
         for j in range(width):
             x[j], v[j] = a.y[j], w[j] / size
-    return OK, t.shape[0] - 1
+    return OK, stop
 
 
 @njit(cache=True, inline="always")

@@ -251,7 +251,7 @@ def test_taylor_mode_series_match_mpmath(name):
         assert abs(got[k] - expected[k]) <= 1e-13 * max(1.0, abs(expected[k])) * 1.5**k, (k, got[k], expected[k])
     from rotlab.scene import formulas
 
-    value = _generated(formulas.compiled(builder.programs).address, np.array(builder.consts))(0, 0, t0, *np.zeros(opcodes.N_INPUTS - 1))
+    value = _generated(formulas.compiled(builder.programs).address, np.array(builder.slots.values))(0, 0, t0, *np.zeros(opcodes.N_INPUTS - 1))
     assert value == pytest.approx(float(reference(mpmath.mpf(t0))), rel=1e-14)
 
 
@@ -569,10 +569,32 @@ def test_programs_that_differ_in_their_constants_only_share_one_compiled_functio
     for k in (0.3, -1.7):
         builder = ProgramBuilder()
         builder.formulas(texts, {"k": k}, 0.0, (-np.inf, np.inf))
-        np.testing.assert_array_equal(formulas.constant_values(builder.programs), builder.consts)
+        np.testing.assert_array_equal(formulas.constant_values(builder.programs), builder.slots.values)
         function = formulas.compiled(builder.programs)
         functions.add(function)
-        values = [_generated(function.address, np.array(builder.consts))(0, c, *x) for c in range(3)]
+        values = [_generated(function.address, np.array(builder.slots.values))(0, c, *x) for c in range(3)]
         expected = [-k * x[1] + k**2 * math.sin(x[0]), math.atan2(k, x[2]) - 2.5, k * x[10]**3]
         assert values == pytest.approx(expected, rel=1e-15, abs=0)
     assert len(functions) == 1
+
+
+def test_a_constant_exponent_stays_a_literal_and_a_repeated_constant_is_one_slot():
+    """A POW's constant exponent is written into the generated source (as POWI's integer), so the
+    compiler turns ``x**0.5`` into a square root, exactly, as it did when every constant was a
+    literal (read from ``c``, the library's pow differs in the last bit for ~1 input in 1,000: a
+    run's bits changed).  Equal values share one slot of ``c`` (a named constant written six times
+    in ``bdot_detumbling``'s field: the compiler then computes cos(n t) once; with a slot each, the
+    load cost 2.8× a step)."""
+    from rotlab.scene import formulas
+
+    builder = ProgramBuilder()
+    builder.formulas(["abs(omega[0])**0.5", "k*cos(n*t) + k*sin(n*t)*omega[1]", "abs(omega[2])**h"], {"k": 0.3, "n": 1.1, "h": 0.5},
+                     0.0, (-np.inf, np.inf))
+    assert builder.slots.values == [0.5, 0.3, 1.1]
+    np.testing.assert_array_equal(formulas.constant_values(builder.programs), builder.slots.values)
+    source = formulas.module_source(builder.programs)
+    assert source.count("(0.5)") == 2 and "c[1] * math.cos((c[2] * x0))" in source
+    function = _generated(formulas.compiled(builder.programs).address, np.array(builder.slots.values))
+    x = np.random.default_rng(7).standard_normal((20000, opcodes.N_INPUTS)) * np.exp(np.random.default_rng(8).uniform(-30, 30, (20000, 1)))
+    for row in x:
+        assert function(0, 0, *row) == math.sqrt(abs(row[1])) and function(0, 2, *row) == math.sqrt(abs(row[3]))

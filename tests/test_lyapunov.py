@@ -124,3 +124,35 @@ def test_the_compiled_renormalisation_is_benettins_loop_over_the_methods_own_loc
         x, v = after, w / norm(w)
     assert result.method.startswith(method) and result.exponent > 0.01
     np.testing.assert_allclose(result.history, history, rtol=1e-13, atol=1e-14)
+
+
+def test_ctrl_c_stops_a_long_exponent_between_its_compiled_calls():
+    """The compiled loop runs in calls of ~0.05 s, so Ctrl-C stops a long measurement at once
+    (a first version ran all its intervals in one call: 24 s here, deaf to the signal)."""
+    import os
+    import signal
+    import threading
+    import time
+
+    overrides = {"solver.method": "rk4", "solver.step": 1e-7, "solver.max_steps": 10**12}
+    lyapunov(CONFIGS / "dzhanibekov.toml", duration=0.05, overrides=overrides)  # (compiled before the clock starts)
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))  # (a thread: it runs when the loop lets go of the GIL, as a signal is handled)
+    started = time.perf_counter()
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            lyapunov(CONFIGS / "dzhanibekov.toml", duration=30.0, overrides=overrides)
+    finally:
+        timer.cancel()
+    assert time.perf_counter() - started < 1.5
+
+
+def test_a_terminal_event_does_not_lift_the_step_budgets_check(write):
+    """Events are not evaluated by ``lyapunov``: a terminal one does not end it, so a fixed step
+    whose span needs more than solver.max_steps is refused, as without the event."""
+    from rotlab.errors import InputError
+
+    flip = {"name": "flip", "when": "omega[1]", "direction": "falling", "terminal": True}
+    with pytest.raises(InputError, match=r"solver\.max_steps: rk4 needs 3e\+04 steps"):
+        lyapunov(CONFIGS / "dzhanibekov.toml", overrides={"solver.method": "rk4", "solver.step": 1e-3, "solver.max_steps": 10000,
+                                                          "events": [flip]})

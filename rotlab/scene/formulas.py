@@ -49,15 +49,58 @@ _memo: dict[str, Any] = {}  # also keeps each compiled function alive: kernels h
 _by_operations: dict[tuple, Any] = {}  # ``compiled``'s functions by the programs' operations
 
 
-def source_of(program: Program, first_constant: int = 0) -> str:
-    """The Python expression of a postfix program (inputs named x0 … x13; its constants
-    c[first_constant], c[first_constant + 1], … in order)."""
+class Slots:
+    """The programs' constants as the generated function reads them: one slot of ``c`` per
+    distinct value (its bits), in the order of first appearance — a named constant written six
+    times is one slot, so the compiler sees one value (it computes cos(n t) once, as it did for a
+    literal).  ``slot(value)`` gives a value's slot, adding it; ``values`` is ``c``.  ``ProgramBuilder``
+    numbers the Taylor-mode code's constants alike (``Expressions.consts``)."""
+
+    def __init__(self) -> None:
+        self.values: list[float] = []
+        self._index: dict[str, int] = {}
+
+    def slot(self, value: float) -> int:
+        key = float(value).hex()
+        if key not in self._index:
+            self._index[key] = len(self.values)
+            self.values.append(float(value))
+        return self._index[key]
+
+
+Operation = tuple  # (opcode, argument): a CONST's argument its slot, or ("literal", value) for an exponent
+
+
+def operations(loads: list[list[Program]]) -> tuple[tuple[tuple[tuple[Operation, ...], ...], ...], np.ndarray]:
+    """(the programs with each CONST's argument its slot, the slots' values): what the generated
+    source depends on, and what its ``c`` holds.  A CONST that is the exponent of a POW (``x**0.5``,
+    ``pow(x, 1.5)``) stays a literal, part of the operations as POWI's integer is: the compiler
+    turns pow(x, 0.5) into a square root (exact), not into the library's pow."""
+    slots = Slots()
+    ops = []
+    for programs in loads:
+        out = []
+        for program in programs:
+            steps: list[Operation] = []
+            for n, (opcode, arg) in enumerate(program):
+                if opcode != op.CONST:
+                    steps.append((opcode, arg))
+                    continue
+                slot = slots.slot(arg)
+                exponent = n + 1 < len(program) and program[n + 1][0] == op.POW
+                steps.append((op.CONST, ("literal", float(arg)) if exponent else slot))
+            out.append(tuple(steps))
+        ops.append(tuple(out))
+    return tuple(ops), np.array(slots.values, dtype=float)
+
+
+def source_of(program: tuple[Operation, ...]) -> str:
+    """The Python expression of a postfix program of ``operations`` (inputs named x0 … x13, the
+    constants c[slot])."""
     stack: list[str] = []
-    constant = first_constant
     for opcode, arg in program:
         if opcode == op.CONST:
-            stack.append(f"c[{constant}]")
-            constant += 1
+            stack.append(f"({arg[1]!r})" if isinstance(arg, tuple) else f"c[{arg}]")
         elif opcode == op.VAR:
             stack.append(f"x{int(arg)}")
         elif opcode == op.NEG:
@@ -77,13 +120,15 @@ def module_source(loads: list[list[Program]], checked: bool = True) -> str:
     """The generated module for the programs of each load (three components each; events: any
     number).  ``checked``: a value that is not finite is recorded as the load's fault
     (``rotlab.core.faults``); events check their values themselves."""
+    return _source(operations(loads)[0], checked)
+
+
+def _source(ops: tuple, checked: bool) -> str:
     lines = [_HEADER.format(args=", ".join(f"x{i}" for i in range(op.N_INPUTS)))]
-    constant = 0
-    for k, programs in enumerate(loads):
+    for k, programs in enumerate(ops):
         lines.append(f"    if load == {k}:\n")
         for c, program in enumerate(programs):
-            text = source_of(program, constant)
-            constant += sum(1 for opcode, _ in program if opcode == op.CONST)
+            text = source_of(program)
             value = f"checked_formula({text}, {k}, {c}, {_STATE_INPUTS})" if checked else text
             lines.append(f"        if component == {c}:\n            return {value}\n")
     lines.append("    return 0.0\n")
@@ -92,15 +137,17 @@ def module_source(loads: list[list[Program]], checked: bool = True) -> str:
 
 def constant_values(loads: list[list[Program]]) -> np.ndarray:
     """The programs' constants as ``module_source``'s function reads them (its ``c``)."""
-    return np.array([arg for programs in loads for program in programs for opcode, arg in program if opcode == op.CONST], dtype=float)
+    return operations(loads)[1]
 
 
 def compiled(loads: list[list[Program]], checked: bool = True) -> Any:
     """The numba cfunc of ``module_source(loads, checked)`` (imported from the cache, written if
     new); it takes ``constant_values(loads)``.  Kept per process by the programs' operations (a
     sweep's cases ask again for the function of their programs, their constants aside)."""
-    operations = (checked, tuple(tuple(tuple((opcode, None if opcode == op.CONST else arg) for opcode, arg in program)
-                                       for program in programs) for programs in loads))
+    ops = operations(loads)[0]
+    if (checked, ops) in _by_operations:
+        return _by_operations[(checked, ops)]
+    text = _source(ops, checked)
     if operations in _by_operations:
         return _by_operations[operations]
     text = module_source(loads, checked)
@@ -118,7 +165,7 @@ def compiled(loads: list[list[Program]], checked: bool = True) -> Any:
         sys.modules[name] = module
         spec.loader.exec_module(module)  # type: ignore[union-attr]
         _memo[key] = module.formulas
-    _by_operations[operations] = _memo[key]
+    _by_operations[(checked, ops)] = _memo[key]
     return _memo[key]
 
 

@@ -25,7 +25,7 @@ class ProgramBuilder:
         self.rows: list[np.ndarray] = []
         self.code: list[tuple[int, int, int]] = []
         self.aux = 0
-        self.consts: list[float] = []
+        self.slots = generated.Slots()  # the constants, one per distinct value, as the generated function reads them
         self.depth = 1
         self.programs: list[list[formulas.Program]] = []
         self.names: list[tuple[str, str, str]] = []
@@ -44,8 +44,7 @@ class ProgramBuilder:
             row[EX_PROGRAMS + 2 * k] = len(self.code)
             for opcode, arg in program:
                 if opcode == opcodes.CONST:
-                    self.code.append((opcode, len(self.consts), 0))
-                    self.consts.append(arg)
+                    self.code.append((opcode, self.slots.slot(arg), 0))
                 else:
                     self.code.append((opcode, int(arg), self.aux))
                     self.aux += aux_rows(opcode, int(arg))
@@ -63,6 +62,6 @@ class ProgramBuilder:
         if not self.rows:
             return None
         return Expressions(np.array(self.rows), np.array(self.code, dtype=np.int64).reshape(-1, 3),
-                           np.array(self.consts, dtype=float), np.ascontiguousarray(axes, dtype=float),
+                           np.array(self.slots.values, dtype=float), np.ascontiguousarray(axes, dtype=float),
                            from_matrix(axes), np.asarray(moments, dtype=float), self.depth, self.aux,
                            generated.compiled(self.programs).address)
