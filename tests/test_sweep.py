@@ -153,7 +153,11 @@ FORMULA = '[[loads]]\ntype = "expression"\nframe = "body"\nconstants = { k = 0.5
                                                ("bdy.mass", "unknown key 'bdy': did you mean 'body'?"),
                                                ("loads[0].value", "index [0] is out of range"),
                                                ("loads[0].constants.kk", "unknown key 'kk': did you mean 'k'?"),
-                                               ("loads[0].constants.x", "unknown key 'x': the scenario gives: k, k2")])
+                                               ("loads[0].constants.x", "unknown key 'x': give it in the file's constants (it gives k, k2) to sweep it"),
+                                               ("loads[0].constants.k[0]", "'loads[0].constants.k' holds one value, not a list: remove [0]"),
+                                               ("body.principal_moments[0][1]", "'body.principal_moments[0]' holds one value, not a list: remove [1]"),
+                                               ("checks.max_drift.L_norm", "unknown key 'L_norm': give it in the file's max_drift (it gives none) to sweep it"),
+                                               ("sweep.seed", "the sweep's own settings are not swept: sweep a key of the scenario")])
 def test_unknown_sweep_keys_say_the_closest_key(write, key, expected):
     from rotlab.errors import InputError
 

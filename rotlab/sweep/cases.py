@@ -108,29 +108,34 @@ def _key_type(base: cfg.Scenario, path: str) -> Any:
     section the base leaves out, an element of a list of tables)."""
     obj: Any = base
     annotation: Any = None
-    for part in parse_key_path(path, parameter_key(path)):
+    parts = parse_key_path(path, parameter_key(path))
+    if parts[0] == "sweep":
+        raise InputError(parameter_key(path), "the sweep's own settings are not swept: sweep a key of the scenario")
+    for n, part in enumerate(parts):
         if obj is None:  # an optional section the base leaves out: the case's validation checks the rest
             return None
         if isinstance(part, int):
-            if not isinstance(obj, (list, tuple)) or part >= len(obj):
+            if not isinstance(obj, (list, tuple)):
+                held = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in parts[:n]).lstrip(".")
+                raise InputError(parameter_key(path), f"'{held}' holds one value, not a list: remove [{part}]")
+            if part >= len(obj):
                 raise InputError(parameter_key(path), f"index [{part}] is out of range")
             obj, annotation = obj[part], _element(annotation, part)
             continue
-        if isinstance(obj, dict):  # a table of the user's own keys (a formula's constants): the base names them
+        if isinstance(obj, dict):  # a table of the user's own keys (a formula's constants): those the file gives
             if part not in obj:
-                raise InputError(parameter_key(path), f"unknown key '{part}': {_hint(part, list(obj), 'the scenario gives')}")
+                close = difflib.get_close_matches(part, list(obj), n=1)
+                hint = f"did you mean '{close[0]}'?" if close else f"give it in the file's {parts[n - 1]} (it gives {', '.join(obj) or 'none'}) to sweep it"
+                raise InputError(parameter_key(path), f"unknown key '{part}': {hint}")
             obj, annotation = obj[part], _element(annotation, 1)
             continue
         fields = type(obj).model_fields if isinstance(obj, BaseModel) else {}
         if part not in fields:
-            raise InputError(parameter_key(path), f"unknown key '{part}': {_hint(part, list(fields), 'allowed keys')}")
+            close = difflib.get_close_matches(part, list(fields), n=1)
+            hint = f"did you mean '{close[0]}'?" if close else f"allowed keys: {', '.join(fields)}" if fields else "it has no keys"
+            raise InputError(parameter_key(path), f"unknown key '{part}': {hint}")
         obj, annotation = getattr(obj, part), fields[part].annotation
     return annotation
-
-
-def _hint(part: str, keys: list[str], which: str) -> str:
-    close = difflib.get_close_matches(part, keys, n=1)
-    return f"did you mean '{close[0]}'?" if close else f"{which}: {', '.join(keys)}" if keys else "it has no keys"
 
 
 def _element(annotation: Any, index: int) -> Any:
