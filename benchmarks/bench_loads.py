@@ -29,6 +29,8 @@ LOADS = {
     "quadratic_drag": [{"type": "quadratic_drag", "coefficient": 0.1}],
     "pd_control, saturated": [{"type": "pd_control", "target": [0.0, 0.0, 0.0, 1.0], "kp": 1.0, "kd": 1.0, "max_torque": 0.5}],
     "gravity_gradient": [{"type": "gravity_gradient", "orbit_rate": 1.0}],
+    "magnetic_dipole": [{"type": "magnetic_dipole", "dipole": [0.1, -0.05, 0.2], "altitude": 500e3, "inclination_deg": 51.6}],
+    "bdot_detumbling": [{"type": "bdot_detumbling", "gain": 2.0e5, "max_dipole": 0.2, "altitude": 500e3, "inclination_deg": 51.6}],
 }
 SETTINGS = {"rk4": Settings(step=1e-3, max_steps=10**12), "dop853": Settings(rtol=1e-10, atol=1e-12), "taylor": Settings(rtol=1e-10, atol=1e-12)}
 

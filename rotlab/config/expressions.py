@@ -29,6 +29,13 @@ ALLOWED = ("numbers, t, omega[i], q[i], gamma[i], L[i], named constants, + - * /
 Program = list[tuple[int, float]]  # (opcode, argument): CONST carries its value, VAR its input index
 
 
+class Written(float):
+    """A CONST's value written in the formula's text (a number, or ``pi``), not a named constant:
+    part of the formula's operations, so the generated source writes it as a literal (the
+    compiler folds 2·x into x + x, and a sweep cannot vary it); a named constant is read from the
+    function's argument (``rotlab.scene.formulas.operations``)."""
+
+
 class FormulaError(ValueError):
     """A formula that is not in the grammar; ``column`` is 1-based (0: the formula as a whole)."""
 
@@ -104,11 +111,12 @@ def _emit(node: ast.AST, constants: dict[str, float], code: Program, level: int)
     if level > MAX_DEPTH:
         raise FormulaError(_col(node), f"formula nested too deeply (limit {MAX_DEPTH} levels)")
     if isinstance(node, ast.Constant):
-        code.append((op.CONST, _number(node, node.value)))
+        code.append((op.CONST, Written(_number(node, node.value))))
         return 1
     if isinstance(node, ast.Name):
         if node.id in constants:
-            code.append((op.CONST, constants[node.id]))
+            value = constants[node.id]
+            code.append((op.CONST, Written(value) if node.id in BUILTIN_CONSTANTS else value))
             return 1
         if node.id == "t":
             code.append((op.VAR, float(op.INPUTS["t"][0])))

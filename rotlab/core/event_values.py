@@ -8,7 +8,7 @@ import math
 
 from numba import njit
 
-from rotlab.core.expressions import call_formulas
+from rotlab.core.expressions import call_formulas, constants_address
 from rotlab.core.state import P0
 from rotlab.core.torques import _to_user, expression_inputs
 
@@ -23,7 +23,7 @@ def formula_value(fn, consts, rows, k, component, t, y, axes, axes_q, moments, r
         x = (t, w0, w1, w2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     else:
         x = expression_inputs(t, y, rows, k, axes, axes_q, moments)
-    return call_formulas(fn, consts, k, component, x)
+    return call_formulas(fn, constants_address(consts), k, component, x)
 
 
 @njit(cache=True)

@@ -74,27 +74,55 @@ EXPRESSION_SIGNATURE = _expression_signature()
 
 @intrinsic
 def _call_address(typingctx, address, consts, load, component, inputs):
-    """fn(load, component, consts' data, *inputs) for the cfunc at ``address`` (an int64) of
-    EXPRESSION_SIGNATURE: a direct call through a C function pointer."""
-    sig = types.float64(types.int64, consts, types.int64, types.int64, inputs)
+    """fn(load, component, consts, *inputs) for the cfunc at ``address`` (an int64) of
+    EXPRESSION_SIGNATURE, ``consts`` the address of its constants: a direct call through a C
+    function pointer."""
+    sig = types.float64(types.int64, types.int64, types.int64, types.int64, inputs)
 
     def codegen(context, builder, signature, args):
         addr, constants, load, component, values = args
         f64 = ir.DoubleType()
         i64 = ir.IntType(64)
-        data = context.make_array(signature.args[1])(context, builder, constants).data
         fnty = ir.FunctionType(f64, [i64, i64, f64.as_pointer()] + [f64] * op.N_INPUTS)
         fn = builder.inttoptr(addr, fnty.as_pointer())
-        return builder.call(fn, [load, component, data] + [builder.extract_value(values, i) for i in range(op.N_INPUTS)])
+        return builder.call(fn, [load, component, builder.inttoptr(constants, f64.as_pointer())]
+                            + [builder.extract_value(values, i) for i in range(op.N_INPUTS)])
 
     return sig, codegen
 
 
+@intrinsic
+def _data_address(typingctx, array):
+    def codegen(context, builder, signature, args):
+        return builder.ptrtoint(context.make_array(signature.args[0])(context, builder, args[0]).data, ir.IntType(64))
+
+    return types.int64(array), codegen
+
+
+def constants_address(consts):
+    """The address of the formulas' constants ``consts`` (``Expressions.consts``), an int64, as
+    ``call_formulas`` takes them: an array passed to a compiled function costs a reference count
+    (an atomic write) at each call, and the right-hand side calls ``expression_torque`` at every
+    stage (the array: ~10 % of a formula load's step); an integer costs nothing.  The array must
+    outlive the calls (the model holds it).  0 on a GPU, whose table holds the constants."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(constants_address, inline="always")
+def _constants_address_cpu(consts):
+    return lambda consts: _data_address(consts)
+
+
+@gpu_overload(constants_address, inline="always")
+def _constants_address_gpu(consts):
+    return lambda consts: 0
+
+
 def call_formulas(address, consts, load, component, inputs):
     """The value of the program of (``load``, ``component``) at ``inputs`` (a tuple of
-    ``N_INPUTS`` floats), its constants ``consts`` (``Expressions.consts``).  On the CPU
-    ``address`` is the scene's compiled programs (a cfunc of EXPRESSION_SIGNATURE,
-    ``rotlab.scene.formulas``): the kernels see an integer, the same type for every scene, and no
+    ``N_INPUTS`` floats), ``consts`` the address of its constants (``constants_address``).  On the
+    CPU ``address`` is the scene's compiled programs (a cfunc of EXPRESSION_SIGNATURE,
+    ``rotlab.scene.formulas``): the kernels see integers, the same types for every scene, and no
     Python object.  On a GPU it is the device address of the programs'
     ``rotlab.core.formula_table``, which ``run_program`` interprets, the constants in the table
     (the GPU cannot call the CPU's function)."""

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit, types
 
-from rotlab.core.expressions import call_formulas, series_step, switch_limit
+from rotlab.core.expressions import call_formulas, constants_address, series_step, switch_limit
 from rotlab.core.faults import FORMULA_NOT_FINITE, record
 from rotlab.core.quaternion import N_PRODUCTS, qmul, rotate_quadratic, rotate_to_body
 from rotlab.core.state import P0, Q0, STATE_SIZE
@@ -253,7 +253,7 @@ def _expressions_impl(t, y, ex):
         return lambda t, y, ex: (0.0, 0.0, 0.0)
 
     def impl(t, y, ex):
-        return expression_torque(t, y, ex.rows, ex.fn, ex.consts, ex.axes, ex.axes_q, ex.moments)
+        return expression_torque(t, y, ex.rows, ex.fn, constants_address(ex.consts), ex.axes, ex.axes_q, ex.moments)
 
     return impl
 
@@ -357,7 +357,7 @@ def expression_output(y, rows, k, axes, vx, vy, vz):
 def expression_torque(t, y, rows, fn, consts, axes, axes_q, moments):
     """Σ over expression loads active at t of their torque, principal body frame; ``fn`` the
     address of the scene's compiled formulas (``rotlab.scene.formulas``), ``consts`` their
-    constants.  Called, not inlined into ``rhs``: inlined, it would be typed again at every call
+    constants' (``constants_address``).  Called, not inlined into ``rhs``: inlined, it would be typed again at every call
     site, and the formula loads' typing is the largest of all."""
     nx = ny = nz = 0.0
     for k in range(rows.shape[0]):
@@ -414,7 +414,7 @@ def _drive_rotors(t, y, dy, c, n, drives):
     def impl(t, y, dy, c, n, drives):
         ex = drives.ex
         nx, ny, nz = plus_torque((0.0, 0.0, 0.0), n)  # (n, or 0 without a load that does work: the drives do work)
-        cx, cy, cz, nx, ny, nz = rotor_drives(t, y, dy, (c[0], c[1], c[2], nx, ny, nz), ex.rows, ex.fn, ex.consts, ex.axes, ex.axes_q,
+        cx, cy, cz, nx, ny, nz = rotor_drives(t, y, dy, (c[0], c[1], c[2], nx, ny, nz), ex.rows, ex.fn, constants_address(ex.consts), ex.axes, ex.axes_q,
                                               ex.moments, drives.offset, drives.axes)
         return (cx, cy, cz), (nx, ny, nz)
 

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from rotlab.config.expressions import Written
 from rotlab.core import opcodes as op
 
 Program = op.Program
@@ -72,10 +73,11 @@ Operation = tuple  # (opcode, argument): a CONST's argument its slot, or ("liter
 
 
 def operations(loads: list[list[Program]]) -> tuple[tuple[tuple[tuple[Operation, ...], ...], ...], np.ndarray]:
-    """(the programs with each CONST's argument its slot, the slots' values): what the generated
-    source depends on, and what its ``c`` holds.  A CONST that is the exponent of a POW (``x**0.5``,
-    ``pow(x, 1.5)``) stays a literal, part of the operations as POWI's integer is: the compiler
-    turns pow(x, 0.5) into a square root (exact), not into the library's pow."""
+    """(the programs with each named constant's argument its slot, the slots' values): what the
+    generated source depends on, and what its ``c`` holds.  A number written in the text
+    (``Written``) and the exponent of a POW (``x**0.5``, ``pow(x, h)``) stay literals, part of the
+    operations as POWI's integer is: the compiler folds them as before constants were an argument
+    (pow(x, 0.5) becomes a square root, exact, not the library's pow; 2·x becomes x + x)."""
     slots = Slots()
     ops = []
     for programs in loads:
@@ -88,7 +90,7 @@ def operations(loads: list[list[Program]]) -> tuple[tuple[tuple[tuple[Operation,
                     continue
                 slot = slots.slot(arg)
                 exponent = n + 1 < len(program) and program[n + 1][0] == op.POW
-                steps.append((op.CONST, ("literal", float(arg)) if exponent else slot))
+                steps.append((op.CONST, ("literal", float(arg)) if exponent or isinstance(arg, Written) else slot))
             out.append(tuple(steps))
         ops.append(tuple(out))
     return tuple(ops), np.array(slots.values, dtype=float)
