@@ -226,6 +226,26 @@ def test_a_root_at_the_start_of_its_sample_interval_is_an_occurrence():
     assert traj.events["lg"].count == 1 and abs(traj.events["lg"].t[0] - 7.194) <= 1e-12
 
 
+@pytest.mark.parametrize("method", ["dop853", "taylor", "rk4", "rkmk4"])
+def test_a_root_on_a_sample_time_is_found_by_every_method_alone_and_in_the_ensemble(method):
+    """sin(π t) is 0 at t = 1 s, a sample at 100 samples/s: located at its interval's start, the
+    local solution runs over no time.  dop853's starting step divided by that empty span: a
+    ZeroDivisionError traceback (found by a review).  Now one occurrence at t = 1 s (to 1e-12),
+    alone and in the ensemble kernels alike."""
+    from rotlab.ensemble.block import run_block
+    from rotlab.methods.base import Settings
+    from rotlab.methods.registry import get_method
+    from rotlab.scene.scene import build_scene
+
+    scenario = rotlab.load(CONFIGS / "dzhanibekov.toml", method=method, overrides={
+        "time.end": 1.5, "time.sample_rate": 100.0, "events": [{"name": "tick", "when": "sin(pi*t)"}]})
+    traj = rotlab.simulate(scenario)
+    assert traj.events["tick"].count == 1 and abs(traj.events["tick"].t[0] - 1.0) <= 1e-12
+    block = run_block([build_scene(scenario)], get_method(method), Settings.of(scenario.solver), scenario.time.sample_times(), [0], 1, [None])
+    assert block.failure[0] is None and block.events["event_tick_count"][0] == 1
+    assert block.events["event_tick_first_s"][0] == traj.events["tick"].t[0]
+
+
 def test_a_fixed_step_run_a_terminal_event_may_end_is_not_refused_for_its_whole_spans_steps():
     """rk4 at h = 1 ms over dzhanibekov.toml's 30 s needs 30,000 steps, beyond max_steps = 10,000:
     refused before stepping without a terminal event, but a terminal flip ends the run at

@@ -278,7 +278,10 @@ def _dense_eval(F, y, x, out, n):
 def dop853_local(y, t0, t1, grid, out, rtol, atol, max_steps, model, counters):
     """The local solution Φ(y, t0, t1) (``Method.local_solution``): y ← the state at t1 of the
     steps from (t0, y) at the tolerances, as a run starting there takes them (NaN where they
-    fail); ``grid`` (2) and ``out`` (2, len(y)) scratch."""
+    fail); ``grid`` (2) and ``out`` (2, len(y)) scratch.  Over no time it is y itself (an event's
+    root at its interval's start: the starting step's estimate would divide by the empty span)."""
+    if t1 == t0:
+        return
     grid[0], grid[1] = t0, t1
     for m in range(out.shape[1]):
         out[1, m] = math.nan
