@@ -582,15 +582,23 @@ def test_a_constant_exponent_stays_a_literal_and_a_repeated_constant_is_one_slot
     """A POW's constant exponent is written into the generated source (as POWI's integer), so the
     compiler turns ``x**0.5`` into a square root, exactly, as it did when every constant was a
     literal (read from ``c``, the library's pow differs in the last bit for ~1 input in 1,000: a
-    run's bits changed).  Equal values share one slot of ``c`` (a named constant written six times
-    in ``bdot_detumbling``'s field: the compiler then computes cos(n t) once; with a slot each, the
-    load cost 2.8× a step)."""
+    run's bits changed).  A named constant is one slot of ``c`` however often it is written (six
+    times in ``bdot_detumbling``'s field: the compiler then computes cos(n t) once; with a slot
+    each, the load cost 2.8× a step), and two names keep two slots when their values are equal
+    (kp = kd in a sweep over kp), so the function stays shared."""
     from rotlab.scene import formulas
 
     builder = ProgramBuilder()
     builder.formulas(["abs(omega[0])**0.5", "k*cos(n*t) + k*sin(n*t)*omega[1]", "abs(omega[2])**h"], {"k": 0.3, "n": 1.1, "h": 0.5},
                      0.0, (-np.inf, np.inf))
-    assert builder.slots.values == [0.5, 0.3, 1.1]
+    assert builder.slots.values == [0.5, 0.3, 1.1]  # (the exponents, literals, by value)
+    functions = set()
+    for a, b in ((0.2, 0.3), (0.2, 0.2), (0.3, 0.3)):
+        other = ProgramBuilder()
+        other.formulas(["a*omega[0] + b*omega[1]", "a*b", "b - a"], {"a": a, "b": b}, 0.0, (-np.inf, np.inf))
+        assert other.slots.values == [a, b]
+        functions.add(formulas.compiled(other.programs))
+    assert len(functions) == 1
     np.testing.assert_array_equal(formulas.constant_values(builder.programs), builder.slots.values)
     source = formulas.module_source(builder.programs)
     assert source.count("(0.5)") == 2 and "c[1] * math.cos((c[2] * x0))" in source

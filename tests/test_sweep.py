@@ -157,7 +157,10 @@ FORMULA = '[[loads]]\ntype = "expression"\nframe = "body"\nconstants = { k = 0.5
                                                ("loads[0].constants.k[0]", "'loads[0].constants.k' holds one value, not a list: remove [0]"),
                                                ("body.principal_moments[0][1]", "'body.principal_moments[0]' holds one value, not a list: remove [1]"),
                                                ("checks.max_drift.L_norm", "unknown key 'L_norm': give it in the file's max_drift (it gives none) to sweep it"),
-                                               ("sweep.seed", "the sweep's own settings are not swept: sweep a key of the scenario")])
+                                               ("sweep.seed", "the sweep's own settings are not swept: sweep a key of the scenario"),
+                                               ("initial[0]", "'initial' is a table, not a list: name one of its keys"),
+                                               ("initial.omega.x", "'initial.omega' is a list: index it, e.g. initial.omega[0]"),
+                                               ("body.principal_moments[0].x", "'body.principal_moments[0]' holds one value: remove .x")])
 def test_unknown_sweep_keys_say_the_closest_key(write, key, expected):
     from rotlab.errors import InputError
 

@@ -29,6 +29,22 @@ ALLOWED = ("numbers, t, omega[i], q[i], gamma[i], L[i], named constants, + - * /
 Program = list[tuple[int, float]]  # (opcode, argument): CONST carries its value, VAR its input index
 
 
+class Named(float):
+    """A CONST's value that a named constant gave (``name``): read from the generated function's
+    argument, one slot per name of a load (``rotlab.scene.formulas.Slots``), so that a sweep over
+    it shares the function."""
+
+    name: str
+
+    def __new__(cls, value: float, name: str) -> Named:
+        named = super().__new__(cls, value)
+        named.name = name
+        return named
+
+    def __reduce__(self) -> tuple:  # (pickled and copied with its name)
+        return Named, (float(self), self.name)
+
+
 class Written(float):
     """A CONST's value written in the formula's text (a number, or ``pi``), not a named constant:
     part of the formula's operations, so the generated source writes it as a literal (the
@@ -116,7 +132,7 @@ def _emit(node: ast.AST, constants: dict[str, float], code: Program, level: int)
     if isinstance(node, ast.Name):
         if node.id in constants:
             value = constants[node.id]
-            code.append((op.CONST, Written(value) if node.id in BUILTIN_CONSTANTS else value))
+            code.append((op.CONST, Written(value) if node.id in BUILTIN_CONSTANTS else Named(value, node.id)))
             return 1
         if node.id == "t":
             code.append((op.VAR, float(op.INPUTS["t"][0])))

@@ -4,10 +4,11 @@ by numba as a ``cfunc`` of ``rotlab.core.expressions.EXPRESSION_SIGNATURE``:
 
     value = f(load, component, c, t, ω₀, ω₁, ω₂, λ₀, λ₁, λ₂, λ₃, γ₀, γ₁, γ₂, L₀, L₁, L₂)
 
-The source reads the programs' constants from ``c`` (``constant_values``: every CONST argument,
-in order), so it depends on the programs' operations only: the cases of a sweep over a load's
-gain or a formula's named constant share one function, compiled once.  It is written once per
-distinct set of operations to ``<cache>/rotlab_formulas_<hash>.py``
+The source reads the formulas' named constants from ``c`` (``constant_values``: one slot per
+constant of a load, ``Slots``), and writes the numbers of their text and a power's exponent as
+literals (``operations``): it depends on the formulas' operations only, so the cases of a sweep
+over a load's gain or a formula's named constant share one function, compiled once.  It is
+written once per distinct set of operations to ``<cache>/rotlab_formulas_<hash>.py``
 (``$ROTLAB_CACHE``, else ``$XDG_CACHE_HOME/rotlab`` or ``~/.cache/rotlab``; a temporary directory
 when none is writable) by temp file + rename, and numba caches its compilation beside it.
 """
@@ -24,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from rotlab.config.expressions import Written
+from rotlab.config.expressions import Named, Written
 from rotlab.core import opcodes as op
 
 Program = op.Program
@@ -51,18 +52,20 @@ _by_operations: dict[tuple, Any] = {}  # ``compiled``'s functions by the program
 
 
 class Slots:
-    """The programs' constants as the generated function reads them: one slot of ``c`` per
-    distinct value (its bits), in the order of first appearance — a named constant written six
-    times is one slot, so the compiler sees one value (it computes cos(n t) once, as it did for a
-    literal).  ``slot(value)`` gives a value's slot, adding it; ``values`` is ``c``.  ``ProgramBuilder``
-    numbers the Taylor-mode code's constants alike (``Expressions.consts``)."""
+    """The programs' constants as the generated function reads them (``values`` is its ``c``):
+    one slot per named constant of a load (``Named``: a constant written six times is one slot, so
+    the compiler computes cos(n t) once, as it did for a literal; two constants of equal values
+    keep two, so a sweep that makes them equal compiles nothing), other constants one per
+    distinct value.  ``ProgramBuilder`` numbers the Taylor-mode code's constants alike
+    (``Expressions.consts``)."""
 
     def __init__(self) -> None:
         self.values: list[float] = []
-        self._index: dict[str, int] = {}
+        self._index: dict[tuple, int] = {}
 
-    def slot(self, value: float) -> int:
-        key = float(value).hex()
+    def slot(self, load: int, value: float) -> int:
+        """The slot of CONST ``value`` (of the load or event numbered ``load``), added if new."""
+        key = ("named", load, value.name) if isinstance(value, Named) else ("value", float(value).hex())
         if key not in self._index:
             self._index[key] = len(self.values)
             self.values.append(float(value))
@@ -80,7 +83,7 @@ def operations(loads: list[list[Program]]) -> tuple[tuple[tuple[tuple[Operation,
     (pow(x, 0.5) becomes a square root, exact, not the library's pow; 2·x becomes x + x)."""
     slots = Slots()
     ops = []
-    for programs in loads:
+    for load, programs in enumerate(loads):
         out = []
         for program in programs:
             steps: list[Operation] = []
@@ -88,7 +91,7 @@ def operations(loads: list[list[Program]]) -> tuple[tuple[tuple[tuple[Operation,
                 if opcode != op.CONST:
                     steps.append((opcode, arg))
                     continue
-                slot = slots.slot(arg)
+                slot = slots.slot(load, arg)
                 exponent = n + 1 < len(program) and program[n + 1][0] == op.POW
                 steps.append((op.CONST, ("literal", float(arg)) if exponent or isinstance(arg, Written) else slot))
             out.append(tuple(steps))
@@ -150,9 +153,6 @@ def compiled(loads: list[list[Program]], checked: bool = True) -> Any:
     if (checked, ops) in _by_operations:
         return _by_operations[(checked, ops)]
     text = _source(ops, checked)
-    if operations in _by_operations:
-        return _by_operations[operations]
-    text = module_source(loads, checked)
     key = hashlib.sha256(text.encode()).hexdigest()[:20]
     if key not in _memo:
         name = f"rotlab_formulas_{key}"

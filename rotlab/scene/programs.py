@@ -44,7 +44,7 @@ class ProgramBuilder:
             row[EX_PROGRAMS + 2 * k] = len(self.code)
             for opcode, arg in program:
                 if opcode == opcodes.CONST:
-                    self.code.append((opcode, self.slots.slot(arg), 0))
+                    self.code.append((opcode, self.slots.slot(len(self.programs), arg), 0))
                 else:
                     self.code.append((opcode, int(arg), self.aux))
                     self.aux += aux_rows(opcode, int(arg))

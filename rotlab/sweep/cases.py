@@ -114,10 +114,15 @@ def _key_type(base: cfg.Scenario, path: str) -> Any:
     for n, part in enumerate(parts):
         if obj is None:  # an optional section the base leaves out: the case's validation checks the rest
             return None
+        held = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in parts[:n]).lstrip(".")
+        is_list, is_table = isinstance(obj, (list, tuple)), isinstance(obj, (BaseModel, dict))
+        wrong = (f"'{held}' is a list: index it, e.g. {held}[0]" if is_list and not isinstance(part, int)
+                 else f"'{held}' is a table, not a list: name one of its keys" if is_table and isinstance(part, int)
+                 else None if is_list or is_table
+                 else f"'{held}' holds one value, not a list: remove [{part}]" if isinstance(part, int) else f"'{held}' holds one value: remove .{part}")
+        if wrong is not None:
+            raise InputError(parameter_key(path), wrong)
         if isinstance(part, int):
-            if not isinstance(obj, (list, tuple)):
-                held = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in parts[:n]).lstrip(".")
-                raise InputError(parameter_key(path), f"'{held}' holds one value, not a list: remove [{part}]")
             if part >= len(obj):
                 raise InputError(parameter_key(path), f"index [{part}] is out of range")
             obj, annotation = obj[part], _element(annotation, part)
