@@ -56,7 +56,7 @@ FIRST_BINARY = op.FIRST_BINARY
 # The value of a program: ``rotlab.scene.formulas`` writes each scene's programs as the Python
 # source of one numba ``cfunc`` of this signature, (load, component, c, x0 … x13) → value, with
 # the helpers below for the operations that need a guard; ``c`` points to the programs' constants
-# (one slot per distinct value: ``Expressions.consts``, ``rotlab.scene.formulas.Slots``), so
+# (one slot per named constant: ``Expressions.consts``, ``rotlab.scene.formulas.Slots``), so
 # programs that differ only in their constants (a sweep over a gain) share one compiled function.  Every scene's function has the
 # same numba type, so the kernels that call it are compiled once and cached on disk; they call it
 # through its address (``call_formulas``).
