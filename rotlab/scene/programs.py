@@ -25,7 +25,7 @@ class ProgramBuilder:
         self.rows: list[np.ndarray] = []
         self.code: list[tuple[int, int, int]] = []
         self.aux = 0
-        self.slots = generated.Slots()  # the constants, one per distinct value, as the generated function reads them
+        self.slots = generated.Slots()  # the constants as the generated function reads them (one slot per named constant)
         self.depth = 1
         self.programs: list[list[formulas.Program]] = []
         self.names: list[tuple[str, str, str]] = []

@@ -114,12 +114,7 @@ def _key_type(base: cfg.Scenario, path: str) -> Any:
     for n, part in enumerate(parts):
         if obj is None:  # an optional section the base leaves out: the case's validation checks the rest
             return None
-        held = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in parts[:n]).lstrip(".")
-        is_list, is_table = isinstance(obj, (list, tuple)), isinstance(obj, (BaseModel, dict))
-        wrong = (f"'{held}' is a list: index it, e.g. {held}[0]" if is_list and not isinstance(part, int)
-                 else f"'{held}' is a table, not a list: name one of its keys" if is_table and isinstance(part, int)
-                 else None if is_list or is_table
-                 else f"'{held}' holds one value, not a list: remove [{part}]" if isinstance(part, int) else f"'{held}' holds one value: remove .{part}")
+        wrong = _shape_mismatch(obj, part, "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in parts[:n]).lstrip("."))
         if wrong is not None:
             raise InputError(parameter_key(path), wrong)
         if isinstance(part, int):
@@ -141,6 +136,19 @@ def _key_type(base: cfg.Scenario, path: str) -> Any:
             raise InputError(parameter_key(path), f"unknown key '{part}': {hint}")
         obj, annotation = getattr(obj, part), fields[part].annotation
     return annotation
+
+
+def _shape_mismatch(obj: Any, part: str | int, held: str) -> str | None:
+    """Why ``part`` (an index or a key) cannot address ``obj``, the value at the path ``held``
+    (None when it can: an index of a list, a key of a table)."""
+    is_list, is_table = isinstance(obj, (list, tuple)), isinstance(obj, (BaseModel, dict))
+    if isinstance(part, int):
+        if is_list:
+            return None
+        return f"'{held}' is a table, not a list: name one of its keys" if is_table else f"'{held}' holds one value, not a list: remove [{part}]"
+    if is_table:
+        return None
+    return f"'{held}' is a list: index it, e.g. {held}[0]" if is_list else f"'{held}' holds one value: remove .{part}"
 
 
 def _element(annotation: Any, index: int) -> Any:
