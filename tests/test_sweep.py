@@ -70,6 +70,40 @@ def test_cases_change_only_their_own_copy_of_the_document(write):
     assert docs[0]["body"] is raw["body"]  # untouched tables are shared, not copied
 
 
+@pytest.mark.parametrize("initial, parameters, invalid", [
+    ("omega = [0.1, 2.0, 0.1]", '"initial.omega[0]" = [0.0, 0.5]\n"initial.omega[2]" = { uniform = [-0.2, 0.2] }', 0),
+    ("", '"initial.omega" = { sphere = 3.0 }\n"initial.quaternion" = [[1, 0, 0, 0], [0.6, 0.8, 0, 0], [0.6, 0.6, 0, 0]]', 2),
+    ("omega_deg = [5.0, 100.0, 5.0]\neuler_313_deg = [10, 20, 30]", '"initial.omega_deg[1]" = [90.0, 110.0]\n"initial.euler_313_deg[1]" = { uniform = [0, 40] }', 0),
+    ("omega_rpm = [10, 20, 30]\naxis_angle = [0.1, 0.2, 0.3]", '"initial.axis_angle" = [[0.1, 0.2, 0.3], [0, 0, 0]]\n"initial.omega_rpm[2]" = { normal = [30, 1] }', 0),
+    ("omega = [0.1, 2.0, 0.1]", '"initial.omega[1]" = [2.0, 1e29]\n"initial.quaternion" = [[1, 0, 0, 0], [2, 0, 0, 0]]\n"initial.omega[0]" = { normal = [0, 0.1] }', 4),
+])
+def test_a_case_over_initial_conditions_is_its_whole_document_validated(write, initial, parameters, invalid):
+    """A case that sweeps initial conditions only has its [initial] table validated alone and
+    shares the rest of the file's scenario (``initial_case``): every such case equals its whole
+    document validated — fields, the keys the file set, its error's wording — and the shortcut
+    is taken for every valid case."""
+    from rotlab.config.loader import parse_scenario
+    from rotlab.errors import InputError
+    from rotlab.sweep.cases import apply, case_scenario, initial_case
+
+    text = SWEEP.replace("[initial]\nomega = [0.1, 2.0, 0.1]\n", f"[initial]\n{initial}\n").split("[sweep.parameters]")[0]
+    p = plan(write("s.toml", text + "[sweep.parameters]\n" + parameters + "\n"))
+    outcomes = {"valid": 0, "invalid": 0}
+    for case in p.cases:
+        fast = case_scenario(p.raw, p.base, case, p.source)
+        try:
+            whole = parse_scenario(apply(p.raw, p.base, case.values), source=f"{p.source} case {case.index}")
+        except InputError as exc:
+            assert isinstance(fast, InputError) and str(fast) == str(exc)
+            outcomes["invalid"] += 1
+            continue
+        assert initial_case(p.raw, p.base, case.values) is not None
+        assert fast == whole and fast.model_fields_set == whole.model_fields_set and fast.sweep is None
+        assert fast.model_dump() == whole.model_dump() and fast.model_dump(exclude_unset=True) == whole.model_dump(exclude_unset=True)
+        outcomes["valid"] += 1
+    assert outcomes == {"valid": len(p.cases) - invalid, "invalid": invalid}
+
+
 def test_sphere_draw_has_the_magnitude(write):
     text = SWEEP.replace('"initial.omega[0]" = [0.0, 0.5]\n"initial.omega[2]" = { uniform = [-0.2, 0.2] }', '"initial.omega" = { sphere = 3.0 }')
     p = plan(write("s.toml", text))

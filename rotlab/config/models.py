@@ -978,6 +978,14 @@ class Scenario(_Model):
             seen.add(event.name)
         return self
 
+    def with_initial(self, initial: Initial) -> Scenario:
+        """This scenario started from ``initial`` (validated), without its ``[sweep]``: what
+        validating its document with that ``[initial]`` table gives, since no check of the
+        scenario as a whole reads the initial conditions (a sweep's case, ``rotlab.sweep.cases``)."""
+        copied = BaseModel.model_copy(self, update={"initial": initial, "sweep": None})  # (pydantic's: validates nothing)
+        copied.__pydantic_fields_set__.discard("sweep")  # (a copy of this scenario's set)
+        return copied
+
     def rotor_momentum(self, driven: bool | None = False) -> np.ndarray:
         """h = Σ J Ω â of the rotors at constant spin (``driven``: of the driven ones, at t0; None:
         of all, at t0), body frame (N·m·s; zero without)."""

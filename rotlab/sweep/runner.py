@@ -29,8 +29,8 @@ from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError, RunFailure
 from rotlab.parallel import Stopped, TaskEnd, TaskRun, WarmWorkers, run_tasks, signals_raise_stopped
-from rotlab.sweep.cases import Case, SweepPlan, case_scenario, check_parameters, expand
-from rotlab.sweep.shared_choice import SharedChoice, initial_only, shared_choice
+from rotlab.sweep.cases import Case, SweepPlan, case_scenario, check_parameters, expand, initial_only
+from rotlab.sweep.shared_choice import SharedChoice, shared_choice
 from rotlab.trajectory import Trajectory, stack_runs
 
 COMPARISON_SAMPLES = 2000  # per case, in the comparison recording

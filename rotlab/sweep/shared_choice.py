@@ -14,7 +14,6 @@ case when no method is expected to meet rtol.  An explicit method runs as reques
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,11 +42,6 @@ class SharedChoice:
         parts = [f"order {s.order}" if s.order is not None else "", f"step {s.step!r} s" if s.step is not None else "",
                  f"rtol {s.rtol!r}, atol {s.atol!r}" if s.step is None else ""]
         return f"{self.method} ({', '.join(p for p in parts if p)})"
-
-
-def initial_only(paths: Iterable[str]) -> bool:
-    """Every swept key is an initial condition."""
-    return all(path.startswith("initial.") for path in paths)
 
 
 def shared_choice(p: SweepPlan) -> SharedChoice | None:
