@@ -18,6 +18,7 @@ its heap; a run's resident memory rose by up to 70 MB that way, at a random poin
 from __future__ import annotations
 
 import ctypes
+import gc
 import time
 
 M_TRIM_THRESHOLD = -1  # glibc's mallopt parameters (malloc.h)
@@ -44,6 +45,16 @@ def keep_heap() -> bool:
     if mallopt is None:
         return False
     return bool(mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD))
+
+
+def freeze_objects() -> None:
+    """Python's cyclic collector leaves the objects alive now alone from here on (``gc.freeze``):
+    the ~10⁵ functions, classes and other objects of the modules imported before a sweep's
+    cases, which each of its collections would otherwise traverse again while the cases make and
+    drop their scenarios (in `rotlab sweep`'s own process, where the ensemble runs the cases:
+    9 → 8 s for 10⁵ short cases, docs/benchmarks.md, "Sweeps: what a case costs").  What they
+    hold is still freed when nothing refers to it."""
+    gc.freeze()
 
 
 TRIM_SECONDS = 0.05  # s between two malloc_trim calls of a HeapTrimmer
