@@ -36,10 +36,10 @@ def _generated(address: int, consts: np.ndarray):
     import ctypes
 
     signature = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, ctypes.POINTER(ctypes.c_double),
-                                 *[ctypes.c_double] * opcodes.N_INPUTS)
+                                 ctypes.POINTER(ctypes.c_double), *[ctypes.c_double] * opcodes.N_INPUTS)
     function, held = signature(address), np.ascontiguousarray(consts, dtype=float)
     pointer = held.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
-    return lambda load, component, *x: function(load, component, pointer, *x)
+    return lambda load, component, *x: function(load, component, pointer, None, *x)
 
 
 def _scenario(loads, method, body=None, end=2.0, omega=(0.3, -1.1, 0.7), **solver):
@@ -576,6 +576,47 @@ def test_programs_that_differ_in_their_constants_only_share_one_compiled_functio
         expected = [-k * x[1] + k**2 * math.sin(x[0]), math.atan2(k, x[2]) - 2.5, k * x[10]**3]
         assert values == pytest.approx(expected, rel=1e-15, abs=0)
     assert len(functions) == 1
+
+
+def test_a_loads_three_values_in_one_call_are_its_three_calls_bit_for_bit():
+    """``call_load_formulas`` (one call of the generated function, the three components computed
+    together, ``opcodes.ALL_COMPONENTS``) gives the three ``call_formulas`` values bit for bit —
+    NaN, ±inf and −0.0 included — and leaves the same fault record (the last non-finite
+    component's: they are checked in the same order)."""
+    from numba import njit
+
+    from rotlab.core import faults
+    from rotlab.core.expressions import call_formulas, call_load_formulas, constants_address
+    from rotlab.scene import formulas
+
+    @njit
+    def together(fn, consts, x):
+        return call_load_formulas(fn, constants_address(consts), 1, x)
+
+    @njit
+    def apart(fn, consts, x):
+        address = constants_address(consts)
+        return call_formulas(fn, address, 1, 0, x), call_formulas(fn, address, 1, 1, x), call_formulas(fn, address, 1, 2, x)
+
+    builder = ProgramBuilder()
+    builder.formulas(["-k*omega[0]", "0", "k*t"], {"k": 0.3}, 0.0, (-np.inf, np.inf))
+    builder.formulas(["log(omega[0])*k*cos(n*t)", "sqrt(omega[1])/omega[2] - k*cos(n*t)", "exp(k*t)*cos(n*t)*q[0]"], {"k": 0.7, "n": 1.3},
+                     0.0, (-np.inf, np.inf))
+    fn, consts = formulas.compiled(builder.programs).address, np.array(builder.slots.values)
+    rng = np.random.default_rng(11)
+    x = rng.standard_normal((4000, opcodes.N_INPUTS)) * np.exp(rng.uniform(-8, 8, (4000, 1)))
+    x[:400, 2] = -0.0
+    x[400:800, 0] = 1e3  # exp(k t) overflows
+    nonfinite = 0
+    for row in x:
+        inputs = tuple(row.tolist())
+        faults.clear()
+        one = np.array(together(fn, consts, inputs))
+        first = faults.take()
+        three = np.array(apart(fn, consts, inputs))
+        assert one.tobytes() == three.tobytes() and first == faults.take()
+        nonfinite += not np.all(np.isfinite(one))
+    assert 800 <= nonfinite < 4000  # (the non-finite values and their records were compared, not only finite ones)
 
 
 def test_a_constant_exponent_stays_a_literal_and_a_repeated_constant_is_one_slot():

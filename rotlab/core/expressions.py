@@ -54,8 +54,9 @@ FIRST_BINARY = op.FIRST_BINARY
 
 
 # The value of a program: ``rotlab.scene.formulas`` writes each scene's programs as the Python
-# source of one numba ``cfunc`` of this signature, (load, component, c, x0 … x13) → value, with
-# the helpers below for the operations that need a guard; ``c`` points to the programs' constants
+# source of one numba ``cfunc`` of this signature, (load, component, c, out, x0 … x13) → value, with
+# the helpers below for the operations that need a guard (``component`` = ``opcodes.ALL_COMPONENTS``: a
+# load's three values written to ``out[0..2]``, ``call_load_formulas``); ``c`` points to the programs' constants
 # (one slot per named constant: ``Expressions.consts``, ``rotlab.scene.formulas.Slots``), so
 # programs that differ only in their constants (a sweep over a gain) share one compiled function.  Every scene's function has the
 # same numba type, so the kernels that call it are compiled once and cached on disk; they call it
@@ -66,27 +67,48 @@ def _expression_signature():
     from numba import types
 
     f = types.float64
-    return f(types.int64, types.int64, types.CPointer(f), *([f] * op.N_INPUTS))
+    return f(types.int64, types.int64, types.CPointer(f), types.CPointer(f), *([f] * op.N_INPUTS))
 
 
 EXPRESSION_SIGNATURE = _expression_signature()
 
 
+def _call(builder, addr, constants, load, component, out, values):
+    """fn(load, component, consts, out, *inputs) for the cfunc at ``addr`` of EXPRESSION_SIGNATURE:
+    a direct call through a C function pointer."""
+    f64, i64 = ir.DoubleType(), ir.IntType(64)
+    fnty = ir.FunctionType(f64, [i64, i64, f64.as_pointer(), f64.as_pointer()] + [f64] * op.N_INPUTS)
+    return builder.call(builder.inttoptr(addr, fnty.as_pointer()), [load, component, builder.inttoptr(constants, f64.as_pointer()), out]
+                        + [builder.extract_value(values, i) for i in range(op.N_INPUTS)])
+
+
 @intrinsic
 def _call_address(typingctx, address, consts, load, component, inputs):
-    """fn(load, component, consts, *inputs) for the cfunc at ``address`` (an int64) of
-    EXPRESSION_SIGNATURE, ``consts`` the address of its constants: a direct call through a C
-    function pointer."""
+    """fn(load, component, consts, NULL, *inputs) for the cfunc at ``address`` (an int64) of
+    EXPRESSION_SIGNATURE, ``consts`` the address of its constants."""
     sig = types.float64(types.int64, types.int64, types.int64, types.int64, inputs)
 
     def codegen(context, builder, signature, args):
         addr, constants, load, component, values = args
-        f64 = ir.DoubleType()
-        i64 = ir.IntType(64)
-        fnty = ir.FunctionType(f64, [i64, i64, f64.as_pointer()] + [f64] * op.N_INPUTS)
-        fn = builder.inttoptr(addr, fnty.as_pointer())
-        return builder.call(fn, [load, component, builder.inttoptr(constants, f64.as_pointer())]
-                            + [builder.extract_value(values, i) for i in range(op.N_INPUTS)])
+        return _call(builder, addr, constants, load, component, ir.Constant(ir.DoubleType().as_pointer(), None), values)
+
+    return sig, codegen
+
+
+@intrinsic
+def _call_address_3(typingctx, address, consts, load, inputs):
+    """fn(load, opcodes.ALL_COMPONENTS, consts, out, *inputs) for the cfunc at ``address``: the load's
+    three values, ``out`` three doubles on the caller's stack."""
+    sig = types.UniTuple(types.float64, 3)(types.int64, types.int64, types.int64, inputs)
+
+    def codegen(context, builder, signature, args):
+        from numba.core import cgutils
+
+        addr, constants, load, values = args
+        out = cgutils.alloca_once(builder, ir.DoubleType(), size=3)
+        _call(builder, addr, constants, load, ir.Constant(ir.IntType(64), op.ALL_COMPONENTS), out, values)
+        three = [builder.load(builder.gep(out, [ir.Constant(ir.IntType(32), i)])) for i in range(3)]
+        return context.make_tuple(builder, signature.return_type, three)
 
     return sig, codegen
 
@@ -148,6 +170,27 @@ def _call_formulas_gpu(address, consts, load, component, inputs):
         return cuda_types.CPointer(cuda_types.float64)(cuda_types.int64), codegen
 
     return lambda address, consts, load, component, inputs: run_program(doubles_at(address), load, component, inputs)
+
+
+def call_load_formulas(address, consts, load, inputs):
+    """(``call_formulas`` of the load's components 0, 1, 2) in one call: on the CPU the generated
+    function computes the three together, so what they share (a magnetic field's cos(n t), its
+    rotation) is computed once; on a GPU, three interpretations of the table."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(call_load_formulas, inline="always")
+def _call_load_formulas_cpu(address, consts, load, inputs):
+    return lambda address, consts, load, inputs: _call_address_3(address, consts, load, inputs)
+
+
+@gpu_overload(call_load_formulas, inline="always")
+def _call_load_formulas_gpu(address, consts, load, inputs):
+    def three(address, consts, load, inputs):
+        return (call_formulas(address, consts, load, 0, inputs), call_formulas(address, consts, load, 1, inputs),
+                call_formulas(address, consts, load, 2, inputs))
+
+    return three
 
 
 # ``rotlab.core.formula_table``'s layout, which ``run_program`` reads

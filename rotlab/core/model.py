@@ -22,7 +22,7 @@ class Expressions(NamedTuple):
     moments: np.ndarray  # (3,) principal moments
     depth: int  # the deepest program's stack
     aux: int  # auxiliary rows of the Taylor-mode tape (``rotlab.core.expressions.aux_rows``)
-    fn: int  # address of the compiled programs (``rotlab.scene.formulas``): fn(load, component, inputs…)
+    fn: int  # address of the compiled programs (``rotlab.scene.formulas``): fn(load, component, consts, out, inputs…)
 
 
 class Drives(NamedTuple):

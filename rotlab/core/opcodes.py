@@ -24,3 +24,4 @@ MAX_INTEGER_POWER = 16
 # inputs of a program, user body frame: t, ω (3), Λ (4), γ (3), L (3)
 INPUTS = {"t": (0, 1), "omega": (1, 3), "q": (4, 4), "gamma": (8, 3), "L": (11, 3)}
 N_INPUTS = 14
+ALL_COMPONENTS = -1  # a component argument of the generated function: a load's three values at once (rotlab.scene.formulas)

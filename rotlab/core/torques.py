@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit, types
 
-from rotlab.core.expressions import call_formulas, constants_address, series_step, switch_limit
+from rotlab.core.expressions import call_formulas, call_load_formulas, constants_address, series_step, switch_limit
 from rotlab.core.faults import FORMULA_NOT_FINITE, record
 from rotlab.core.quaternion import N_PRODUCTS, qmul, rotate_quadratic, rotate_to_body
 from rotlab.core.state import P0, Q0, STATE_SIZE
@@ -364,9 +364,7 @@ def expression_torque(t, y, rows, fn, consts, axes, axes_q, moments):
         if not (rows[k, EX_ON] <= t < rows[k, EX_OFF]):
             continue
         x = expression_inputs(t, y, rows, k, axes, axes_q, moments)
-        vx = call_formulas(fn, consts, k, 0, x)
-        vy = call_formulas(fn, consts, k, 1, x)
-        vz = call_formulas(fn, consts, k, 2, x)
+        vx, vy, vz = call_load_formulas(fn, consts, k, x)
         mx, my, mz = expression_output(y, rows, k, axes, vx, vy, vz)
         nx += mx
         ny += my

@@ -2,7 +2,11 @@
 validated postfix programs (``rotlab.config.expressions``; user text is never executed), compiled
 by numba as a ``cfunc`` of ``rotlab.core.expressions.EXPRESSION_SIGNATURE``:
 
-    value = f(load, component, c, t, ω₀, ω₁, ω₂, λ₀, λ₁, λ₂, λ₃, γ₀, γ₁, γ₂, L₀, L₁, L₂)
+    value = f(load, component, c, out, t, ω₀, ω₁, ω₂, λ₀, λ₁, λ₂, λ₃, γ₀, γ₁, γ₂, L₀, L₁, L₂)
+
+A load's three components (``checked``) are computed together, in order; ``component`` picks one,
+or, ``opcodes.ALL_COMPONENTS``, has the three written to ``out`` (``call_load_formulas``: one call a load,
+and what the components share, such as a magnetic field, computed once).
 
 The source reads the formulas' named constants from ``c`` (``constant_values``: one slot per
 constant of a load, ``Slots``), and writes the numbers of their text and a power's exponent as
@@ -44,7 +48,7 @@ from rotlab.core.faults import checked_formula
 
 
 @cfunc(EXPRESSION_SIGNATURE, cache=True)
-def formulas(load, component, c, {args}):
+def formulas(load, component, c, out, {args}):
 '''
 _STATE_INPUTS = "x0, x1, x2, x3, x4, x5, x6, x7"  # t, ω, Λ: what a fault records
 _memo: dict[str, Any] = {}  # also keeps each compiled function alive: kernels hold only its address
@@ -132,6 +136,12 @@ def _source(ops: tuple, checked: bool) -> str:
     lines = [_HEADER.format(args=", ".join(f"x{i}" for i in range(op.N_INPUTS)))]
     for k, programs in enumerate(ops):
         lines.append(f"    if load == {k}:\n")
+        if checked and len(programs) == 3:  # a load's torque or force: its three components together
+            lines += [f"        v{c} = checked_formula({source_of(program)}, {k}, {c}, {_STATE_INPUTS})\n" for c, program in enumerate(programs)]
+            lines.append(f"        if component == {op.ALL_COMPONENTS}:\n            out[0] = v0\n            out[1] = v1\n            out[2] = v2\n"
+                         "            return 0.0\n")
+            lines.append("        return v0 if component == 0 else v1 if component == 1 else v2\n")
+            continue
         for c, program in enumerate(programs):
             text = source_of(program)
             value = f"checked_formula({text}, {k}, {c}, {_STATE_INPUTS})" if checked else text
