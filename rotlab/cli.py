@@ -376,7 +376,7 @@ def sweep(
     with start_workers(config, jobs) if dask is None else nullcontext() as warm:
         from rotlab.withheld import withhold_pandas, withhold_scipy_linalg
         withhold_scipy_linalg()  # numba would import SciPy's linear algebra to ask about BLAS for functions we never call
-        from rotlab.heap import freeze_objects, keep_heap
+        from rotlab.heap import keep_heap, objects_frozen
         from rotlab.outdir import prepare_outdir
         from rotlab.parallel import exit_after_stop
         from rotlab.sweep.recording import write_comparison
@@ -388,7 +388,6 @@ def sweep(
         withhold_pandas()  # pyarrow would import pandas (time and memory) just to ask if our arrays are Series
         try:
             sweep_plan = plan(config)
-            freeze_objects()  # (what was imported and planned: the cases' collections skip it)
             compared = compared_cases(len(sweep_plan.cases), _case_numbers(compare, len(sweep_plan.cases)))  # (before any file is made)
             on_gpu = device_plan(sweep_plan, device, "--device", dask, timeout)  # (--device over the file's [sweep] device)
             device = device if device is not None else sweep_plan.base.sweep.device  # (run_cases: the device decided here)
@@ -397,8 +396,9 @@ def sweep(
             # the results table: results.partial.csv grows as cases finish; the final files, the recording and the terminal read it
             results = Results(parameter_names(sweep_plan.cases[0].values), [], outdir / PARTIAL_RESULTS,
                               observable_names(list(sweep_plan.base.events)))
-            run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm,
-                            on_outcomes=results.add, compared=compared, ensemble=on_gpu, device=device)
+            with objects_frozen():  # (what was imported and planned: the cases' collections skip it)
+                run = run_cases(sweep_plan, jobs=jobs, dask_address=dask, timeout=timeout, retries=retries, warm=warm,
+                                on_outcomes=results.add, compared=compared, ensemble=on_gpu, device=device)
         except (InputError, RunFailure) as exc:  # (a GPU's failure: the cases that finished are in results.partial.csv)
             _fail(exc)
         except OSError as exc:

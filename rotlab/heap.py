@@ -20,6 +20,8 @@ from __future__ import annotations
 import ctypes
 import gc
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 M_TRIM_THRESHOLD = -1  # glibc's mallopt parameters (malloc.h)
 M_MMAP_THRESHOLD = -3
@@ -47,14 +49,20 @@ def keep_heap() -> bool:
     return bool(mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD))
 
 
-def freeze_objects() -> None:
-    """Python's cyclic collector leaves the objects alive now alone from here on (``gc.freeze``):
-    the ~10⁵ functions, classes and other objects of the modules imported before a sweep's
-    cases, which each of its collections would otherwise traverse again while the cases make and
-    drop their scenarios (in `rotlab sweep`'s own process, where the ensemble runs the cases:
-    9 → 8 s for 10⁵ short cases, docs/benchmarks.md, "Sweeps: what a case costs").  What they
-    hold is still freed when nothing refers to it."""
+@contextmanager
+def objects_frozen() -> Iterator[None]:
+    """Within: Python's cyclic collector leaves alone the objects alive on entry (``gc.freeze``;
+    ``gc.unfreeze`` on exit, for a process that goes on: a caller's objects frozen for good
+    would never be collected) — the ~10⁵ functions, classes and other objects of the modules
+    imported before a sweep's cases, which each of its collections would otherwise traverse
+    again while the cases make and drop their scenarios (in `rotlab sweep`'s own process,
+    where the ensemble runs the cases: 9 → 8 s for 10⁵ short cases, docs/benchmarks.md,
+    "Sweeps: what a case costs").  What they hold is still freed when nothing refers to it."""
     gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 TRIM_SECONDS = 0.05  # s between two malloc_trim calls of a HeapTrimmer

@@ -173,28 +173,38 @@ def exit_after_stop() -> None:
     _EXIT_AFTER_STOP = True
 
 
-class signals_raise_stopped:
-    """SIGINT and SIGTERM raise ``Stopped`` in the main thread while tasks run — once: a second
-    signal (Ctrl-C pressed again) while the workers are being stopped is ignored, so the
-    summary of what finished is still written."""
+class signals_noted:
+    """SIGINT and SIGTERM noted in ``signum`` — the first one: a second signal (Ctrl-C pressed
+    again) is ignored — for a loop to stop at its next safe point: nothing is raised into the
+    code that runs, so no half-done step (a block's rows written but not counted, a case's
+    validation) is cut.  ``signals_raise_stopped`` raises instead."""
 
-    def __enter__(self) -> None:
+    def __enter__(self) -> signals_noted:
         self.saved: dict[int, Any] = {}
-        self.fired = False
-        if threading.current_thread() is not threading.main_thread():
-            return
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            self.saved[signum] = signal.signal(signum, self._raise_stopped)
+        self.signum: int | None = None
+        if threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self.saved[signum] = signal.signal(signum, self._on_signal)
+        return self
 
     def __exit__(self, *exc: object) -> None:
         for signum, handler in self.saved.items():
-            signal.signal(signum, signal.SIG_IGN if self.fired and _EXIT_AFTER_STOP else handler)
+            signal.signal(signum, signal.SIG_IGN if self.signum is not None and _EXIT_AFTER_STOP else handler)
 
-    def _raise_stopped(self, signum: int, frame: object) -> None:
-        if self.fired:
-            return
-        self.fired = True
-        raise Stopped(signum)
+    def _on_signal(self, signum: int, frame: object) -> None:
+        if self.signum is None:
+            self.signum = signum
+
+
+class signals_raise_stopped(signals_noted):
+    """SIGINT and SIGTERM raise ``Stopped`` in the main thread while tasks run — once: a second
+    signal while the workers are being stopped is ignored, so the summary of what finished is
+    still written."""
+
+    def _on_signal(self, signum: int, frame: object) -> None:
+        if self.signum is None:
+            self.signum = signum
+            raise Stopped(signum)
 
 
 @dataclass

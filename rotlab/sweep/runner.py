@@ -28,7 +28,7 @@ import numpy as np
 from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, read_toml
 from rotlab.errors import InputError, RunFailure
-from rotlab.parallel import Stopped, TaskEnd, TaskRun, WarmWorkers, run_tasks, signals_raise_stopped
+from rotlab.parallel import TaskEnd, TaskRun, WarmWorkers, run_tasks, signals_noted
 from rotlab.sweep.cases import Case, SweepPlan, case_scenario, check_parameters, expand, initial_only
 from rotlab.sweep.shared_choice import SharedChoice, shared_choice
 from rotlab.trajectory import Trajectory, stack_runs
@@ -423,22 +423,21 @@ def run_cases(p: SweepPlan, jobs: int = 2, dask_address: str | None = None, *, t
     if plan is not None and dask_address is None:
         import numba
 
-        started, done, stopped, size = time.perf_counter(), 0, None, FIRST_BLOCK
+        started, done, size = time.perf_counter(), 0, FIRST_BLOCK
         threads = numba.get_num_threads()
         numba.set_num_threads(max(1, min(jobs, numba.config.NUMBA_NUM_THREADS)))  # -j: the kernels' threads
-        with signals_raise_stopped():
+        with signals_noted() as signals:  # a stop signal ends the sweep between blocks (a block is not cut short)
             try:
-                while done < len(p.cases):
+                while done < len(p.cases) and signals.signum is None:
                     block_started, timing = time.perf_counter(), {}
                     block = p.cases[done:done + size]
                     deliver(run_ensemble_chunk(p.raw, p.base, p.source, block, plan, compared, timing))
                     done += len(block)
                     size = block_size(size, time.perf_counter() - block_started - timing.get("checked", 0.0))  # (the pace of the kernels)
-            except Stopped as stop:  # (between kernel calls: a block is not cut short)
-                stopped = stop.signum
             finally:
                 used = numba.get_num_threads()
                 numba.set_num_threads(threads)
+        stopped = signals.signum
         if stopped is not None:
             note = f"not finished (the sweep received {signal.Signals(stopped).name})"
             deliver([CaseOutcome(case.index, case.values, "error", message=note) for case in p.cases[done:]])
