@@ -194,7 +194,8 @@ FORMULA = '[[loads]]\ntype = "expression"\nframe = "body"\nconstants = { k = 0.5
                                                ("sweep.seed", "the sweep's own settings are not swept: sweep a key of the scenario"),
                                                ("initial[0]", "'initial' is a table, not a list: name one of its keys"),
                                                ("initial.omega.x", "'initial.omega' is a list: index it, e.g. initial.omega[0]"),
-                                               ("body.principal_moments[0].x", "'body.principal_moments[0]' holds one value: remove .x")])
+                                               ("body.principal_moments[0].x", "'body.principal_moments[0]' holds one value: remove .x"),
+                                               ("initial.quaternion[0]", "has no value in the scenario to index into: give the whole vector")])
 def test_unknown_sweep_keys_say_the_closest_key(write, key, expected):
     from rotlab.errors import InputError
 
@@ -344,3 +345,72 @@ def test_a_sweep_over_a_formulas_constants_runs_each_case_as_alone_with_one_comp
         np.testing.assert_allclose(formula.omega, builtin.omega, rtol=0, atol=1e-14)
         finals.append(formula.omega[-1])
     assert np.linalg.norm(finals[1]) < 0.8 * np.linalg.norm(finals[0])
+
+
+_STOP_DRIVER = """import os, signal, sys
+import rotlab.scene.scene as scene
+import rotlab.sweep.results as results
+where, at = sys.argv[1], int(sys.argv[2])
+calls = [0]
+
+def stop_at(fn):
+    def wrapped(*args, **kwargs):
+        value = fn(*args, **kwargs)
+        calls[0] += 1
+        if calls[0] == at:
+            os.kill(os.getpid(), signal.SIGINT)  # (its handler runs here, inside the step)
+            sum(range(1000))
+        return value
+    return wrapped
+
+if where == "rows":  # as a block's rows were just written to results.partial.csv, before they were counted
+    results.Results._append_csv = stop_at(results.Results._append_csv)
+else:  # while a case's scene is built
+    scene.build_scene = stop_at(scene.build_scene)
+from rotlab.__main__ import entry
+sys.argv = ["rotlab", "sweep", "s.toml", "-o", "out", "-j", "1"]
+entry()
+"""
+
+
+@pytest.mark.parametrize("where, at", [("rows", 2), ("scene", 100)])
+def test_ctrl_c_stops_an_ensemble_sweep_between_blocks_with_each_case_once(tmp_path, where, at):
+    """Ctrl-C in the ensemble's loop is heard between blocks: wherever it lands — as a block's
+    rows are written, as a case's scene is built — the sweep stops with exit 130, each case is one
+    row (the finished blocks' "pass", the others "not finished"), and no case becomes an error
+    of its own.  (Raised where it landed, it wrote a block's rows twice, or became that case's
+    error and the sweep ran on to exit 1.)"""
+    import subprocess
+    import sys
+
+    (tmp_path / "s.toml").write_text(SWEEP.replace("samples = 2", "samples = 200"), encoding="utf-8")
+    (tmp_path / "driver.py").write_text(_STOP_DRIVER, encoding="utf-8")
+    done = subprocess.run([sys.executable, "driver.py", where, str(at)], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 130, done.stdout + done.stderr
+    with (tmp_path / "out" / "results.csv").open(encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    assert sorted(int(row["case"]) for row in rows) == list(range(400))
+    statuses = [row["status"] for row in rows]
+    finished = statuses.count("pass")
+    assert 64 <= finished < 400 and statuses.count("error") == 400 - finished
+    assert all(row["message"].startswith("not finished (the sweep received SIGINT)") for row in rows if row["status"] == "error")
+
+
+def test_a_sweep_run_in_process_leaves_the_collector_as_it_found_it(cli, write):
+    """`rotlab sweep` freezes the objects alive before its cases for their collections
+    (``heap.objects_frozen``) and unfreezes them after: run in a caller's process, an object of
+    the caller's in a reference cycle is still collected once dropped."""
+    import gc
+    import weakref
+
+    class Cycle:
+        def __init__(self) -> None:
+            self.me = self
+
+    held = Cycle()
+    alive = weakref.ref(held)
+    assert cli("sweep", str(write("s.toml", SWEEP)), "-o", "out").exit_code == 0
+    assert gc.get_freeze_count() == 0
+    del held
+    gc.collect()
+    assert alive() is None

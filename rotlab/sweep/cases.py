@@ -257,7 +257,11 @@ def case_scenario(raw: dict[str, Any], base: cfg.Scenario, case: Case, source: s
     ``[initial]`` table validated alone and shares the rest of ``base`` (``initial_case``)."""
     try:
         scenario = initial_case(raw, base, case.values) if initial_only(case.values) else None
-        return scenario or parse_scenario(apply(raw, base, case.values), source=f"{source} case {case.index}")
+        document = None if scenario else apply(raw, base, case.values)
+    except InputError as exc:  # a path the file's document cannot take (an index into a value it does not give): named in the file
+        return InputError(f"{source}: {exc.where}", exc.message)
+    try:
+        return scenario or parse_scenario(document, source=f"{source} case {case.index}")
     except InputError as exc:
         return exc
 
