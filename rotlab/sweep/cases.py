@@ -257,11 +257,13 @@ def case_scenario(raw: dict[str, Any], base: cfg.Scenario, case: Case, source: s
     ``[initial]`` table validated alone and shares the rest of ``base`` (``initial_case``)."""
     try:
         scenario = initial_case(raw, base, case.values) if initial_only(case.values) else None
-        document = None if scenario else apply(raw, base, case.values)
+        if scenario is not None:
+            return scenario
+        document = apply(raw, base, case.values)
     except InputError as exc:  # a path the file's document cannot take (an index into a value it does not give): named in the file
         return InputError(f"{source}: {exc.where}", exc.message)
     try:
-        return scenario or parse_scenario(document, source=f"{source} case {case.index}")
+        return parse_scenario(document, source=f"{source} case {case.index}")
     except InputError as exc:
         return exc
 
@@ -273,9 +275,9 @@ def initial_only(paths: Iterable[str]) -> bool:
 
 def initial_case(raw: dict[str, Any], base: cfg.Scenario, values: dict[str, Any]) -> cfg.Scenario | None:
     """``base`` with the ``[initial]`` table that ``values`` (initial conditions only) make of the
-    file's, validated alone (``Scenario.with_initial``): a whole scenario's validation cost a case
-    ~8× as much.  None when that table is invalid: the whole document's validation then names
-    the key and says why, as for any case."""
+    file's, validated alone (``Scenario.with_initial``: 10 µs a case against the whole document's
+    23, docs/benchmarks.md).  None when that table is invalid: the whole document's validation
+    then names the key and says why, as for any case."""
     table = apply({"initial": raw["initial"]} if "initial" in raw else {}, base, values)["initial"]
     try:
         return base.with_initial(cfg.Initial.model_validate(table))
