@@ -414,3 +414,29 @@ def test_a_sweep_run_in_process_leaves_the_collector_as_it_found_it(cli, write):
     del held
     gc.collect()
     assert alive() is None
+
+
+def test_a_swept_initial_value_replaces_the_files_given_another_way_as_set_does(write):
+    """A sweep sets a case's value as `--set` does (``loader.set_value``): a swept ω, or a
+    component of it, replaces the file's ``omega_rpm`` (the other components the file's,
+    converted), a swept quaternion the file's Euler angles; two swept keys that give one
+    quantity two ways are refused (one would replace the other)."""
+    import math
+
+    from rotlab.config.loader import parse_scenario, read_toml
+    from rotlab.errors import InputError
+
+    rpm = math.pi / 30.0
+    text = VALID_BODY + ("[initial]\nomega_rpm = [10, 20, 30]\neuler_313_deg = [10, 20, 30]\n[time]\nend = 1.0\n[solver]\nmethod = \"rk4\"\n"
+                         "step = 0.001\n[sweep]\n[sweep.parameters]\n")
+    p = plan(write("s.toml", text + '"initial.omega[0]" = [0.1, 0.2]\n"initial.quaternion" = [[0, 1, 0, 0]]\n'))
+    for case, scenario in zip(p.cases, p.scenarios):
+        assert scenario.initial.omega == pytest.approx((case.values["initial.omega[0]"], 20 * rpm, 30 * rpm), rel=1e-15)
+        assert scenario.initial.quaternion == (0.0, 1.0, 0.0, 0.0) and scenario.initial.euler_313_deg is None
+    alone = parse_scenario(read_toml(write("one.toml", text.split("[sweep]")[0])), overrides={"initial.omega[0]": 0.2,
+                                                                                              "initial.quaternion": [0, 1, 0, 0]})
+    assert alone.initial == p.scenarios[1].initial
+    for swept, message in (('"initial.omega" = [[1, 2, 3]]\n"initial.omega_deg" = [[1, 2, 3]]', "the same quantity as 'initial.omega', given another way"),
+                           ('"initial.omega" = [[1, 2, 3]]\n"initial.omega_rpm[1]" = [1.0]', "sets part of 'initial.omega', which is swept too")):
+        with pytest.raises(InputError, match=re.escape(message)):
+            plan(write("s.toml", text + swept + "\n"))

@@ -17,7 +17,7 @@ from typing import Any, Mapping, Sequence
 from pydantic import BaseModel, ValidationError
 
 from rotlab.config.models import DRIVE_TAGS, LOAD_MODELS, ONE_QUANTITY, SWEEP_TAGS, Scenario
-from rotlab.config.paths import drop_siblings, model_defaults, set_at
+from rotlab.config.paths import Defaults, drop_siblings, model_defaults, parse_key_path, set_at
 from rotlab.errors import InputError
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -138,6 +138,18 @@ def input_error(exc: ValidationError, source: str) -> InputError:
     return InputError(f"{source}: {key}" if key else source, message + more)
 
 
+def set_value(data: dict[str, Any], path: str, value: Any, where: str, defaults: Defaults) -> None:
+    """``set_at``, and a value given another way replaces the document's: setting ``initial.omega``
+    or a component of it drops the table's ``omega_rpm`` and ``omega_deg`` (``ONE_QUANTITY``; the
+    other components are the file's, converted).  What `--set`, the API's
+    ``overrides`` and a sweep's cases do to a scenario document."""
+    set_at(data, path, value, where, defaults)
+    key = next(part for part in reversed(parse_key_path(path, where)) if isinstance(part, str))  # (omega of initial.omega[0])
+    for group in ONE_QUANTITY:
+        if key in group:
+            drop_siblings(data, path, group, where)
+
+
 def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str, Any], duration: float | None) -> dict[str, Any]:
     if not overrides and duration is None:
         return dict(data)
@@ -150,11 +162,7 @@ def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str
             raise input_error(exc, source) from None
 
     for path, value in overrides.items():
-        set_at(merged, path, value, path, model_defaults(file_scenario))
-        last = path.rsplit(".", 1)[-1]
-        for group in ONE_QUANTITY:  # a value given another way replaces the file's (omega_rpm for omega, …)
-            if last in group:
-                drop_siblings(merged, path, group, path)
+        set_value(merged, path, value, path, model_defaults(file_scenario))
     if duration is not None:
         time = merged["time"] = dict(merged["time"]) if isinstance(merged.get("time"), dict) else {}
         start = time.get("start", 0.0)

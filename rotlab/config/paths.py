@@ -85,13 +85,15 @@ def set_at(data: dict[str, Any], path: str, value: Any, where: str, defaults: De
 
 
 def drop_siblings(data: dict[str, Any], path: str, siblings: set[str], where: str) -> None:
-    """Remove the keys ``siblings`` beside the one at ``path`` (its table already copied by ``set_at``)."""
+    """Remove the keys ``siblings`` beside the key that ``path`` names or indexes into (``omega``
+    of ``initial.omega[0]``), in its table (already copied by ``set_at``)."""
     parts = parse_key_path(path, where)
+    last = max(k for k, part in enumerate(parts) if isinstance(part, str))
     node: Any = data
-    for part in parts[:-1]:
+    for part in parts[:last]:
         node = node[part]
     if isinstance(node, dict):
-        for key in siblings - {parts[-1]}:
+        for key in siblings - {parts[last]}:
             node.pop(key, None)
 
 

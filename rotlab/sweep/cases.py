@@ -21,8 +21,8 @@ import numpy as np
 from pydantic import BaseModel, ValidationError
 
 from rotlab.config import models as cfg
-from rotlab.config.loader import parse_scenario
-from rotlab.config.paths import model_defaults, parse_key_path, set_at
+from rotlab.config.loader import parse_scenario, set_value
+from rotlab.config.paths import model_defaults, parse_key_path
 from rotlab.errors import InputError
 
 
@@ -173,14 +173,23 @@ def check_overlaps(paths: list[str]) -> None:
     """No two sweep parameters may set the same value: 'initial.omega' with 'initial.omega[1]'
     (one silently overwrote the other, depending on the order and on which one was drawn), or
     'initial.omega[2]' with 'initial.omega[02]'."""
-    parsed = [(path, tuple(parse_key_path(path, parameter_key(path)))) for path in paths]
+    parsed = [(path, _quantities(parse_key_path(path, parameter_key(path)))) for path in paths]
     for (a, parts_a), (b, parts_b) in itertools.combinations(parsed, 2):
         (whole, whole_parts), (part, part_parts) = sorted(((a, parts_a), (b, parts_b)), key=lambda item: len(item[1]))
         if part_parts[: len(whole_parts)] != whole_parts:
             continue
         if len(part_parts) == len(whole_parts):
-            raise InputError(parameter_key(part), f"the same key as '{whole}': give it once")
+            same = parse_key_path(part, part) == parse_key_path(whole, whole)
+            raise InputError(parameter_key(part), f"the same key as '{whole}': give it once" if same else
+                             f"the same quantity as '{whole}', given another way (one would replace the other): sweep one of them")
         raise InputError(parameter_key(part), f"sets part of '{whole}', which is swept too: sweep the whole value or its parts, not both")
+
+
+def _quantities(parts: list[str | int]) -> tuple:
+    """The key path's parts with each key that names a quantity given one of several ways
+    (``omega``, ``omega_rpm``, ``omega_deg``: ``ONE_QUANTITY``) replaced by that quantity."""
+    return tuple(next((frozenset(group) for group in cfg.ONE_QUANTITY if part in group), part) if isinstance(part, str) else part
+                 for part in parts)
 
 
 class Cases(Sequence[Case]):
@@ -242,12 +251,13 @@ def draw(dist: cfg.Distribution, rng: np.random.Generator) -> float | list[float
 
 
 def apply(raw: dict[str, Any], base: cfg.Scenario, values: dict[str, Any]) -> dict[str, Any]:
-    """The raw scenario dict with ``values`` set at their paths (no [sweep] section).  ``set_at``
+    """The raw scenario dict with ``values`` set at their paths (``set_value``: as `--set` sets
+    them, a value given another way replacing the file's) and no [sweep] section.  ``set_at``
     copies only the tables and arrays on those paths (a deep copy of the whole document was half
     of a case's validation); the rest is shared with ``raw``, which validation does not change."""
     data = {key: value for key, value in raw.items() if key != "sweep"}
     for path, value in values.items():
-        set_at(data, path, value, parameter_key(path), model_defaults(base))
+        set_value(data, path, value, parameter_key(path), model_defaults(base))
     return data
 
 
