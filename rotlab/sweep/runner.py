@@ -293,7 +293,8 @@ def device_plan(p: SweepPlan, device: str | None, option: str, dask_address: str
 
 def block_size(size: int, seconds: float) -> int:
     """The next ensemble block: as many cases as the last block's pace fits in ``BLOCK_SECONDS``
-    (results.csv grows, and a stop signal is heard, about once a second), within
+    (results.csv grows, and a stop signal is heard, about once a second — but for a first block
+    whose kernels compile: numba's compiler is not interrupted), within
     [``FIRST_BLOCK``, ``BLOCK_CASES``].  Blocks change no case's numbers, only when they are reported."""
     return int(min(BLOCK_CASES, max(FIRST_BLOCK, size * BLOCK_SECONDS / max(seconds, 1e-3))))
 
