@@ -399,7 +399,8 @@ def test_ctrl_c_stops_an_ensemble_sweep_between_blocks_with_each_case_once(tmp_p
 def test_a_sweep_run_in_process_leaves_the_collector_as_it_found_it(cli, write):
     """`rotlab sweep` freezes the objects alive before its cases for their collections
     (``heap.objects_frozen``) and unfreezes them after: run in a caller's process, an object of
-    the caller's in a reference cycle is still collected once dropped."""
+    the caller's in a reference cycle is still collected once dropped, and objects the caller
+    froze itself stay frozen."""
     import gc
     import weakref
 
@@ -414,6 +415,13 @@ def test_a_sweep_run_in_process_leaves_the_collector_as_it_found_it(cli, write):
     del held
     gc.collect()
     assert alive() is None
+    gc.freeze()  # a caller that froze objects itself keeps them frozen
+    try:
+        frozen = gc.get_freeze_count()
+        assert frozen > 0 and cli("sweep", str(write("s.toml", SWEEP)), "-o", "out2").exit_code == 0
+        assert gc.get_freeze_count() == frozen
+    finally:
+        gc.unfreeze()
 
 
 def test_a_swept_initial_value_replaces_the_files_given_another_way_as_set_does(write):
