@@ -419,7 +419,7 @@ def test_a_sweep_run_in_process_leaves_the_collector_as_it_found_it(cli, write):
     try:
         frozen = gc.get_freeze_count()
         assert frozen > 0 and cli("sweep", str(write("s.toml", SWEEP)), "-o", "out2").exit_code == 0
-        assert gc.get_freeze_count() == frozen
+        assert gc.get_freeze_count() > frozen // 2  # (0 had the sweep unfrozen them; a few frozen objects die meanwhile)
     finally:
         gc.unfreeze()
 
