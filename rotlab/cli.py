@@ -404,8 +404,9 @@ def sweep(
         except OSError as exc:
             _fail(RunFailure(f"could not write the sweep's results in {outdir}: {exc.strerror or exc}"))
     try:
-        write_results(results, outdir)
-        write_comparison(results, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
+        with interrupts.deferred():  # (every case is in: a stop signal now ends the command once its files are written)
+            write_results(results, outdir)
+            write_comparison(results, outdir / f"{config.stem}_sweep.rrd", sweep_plan.base.title)
     except (OSError, RunFailure) as exc:
         _fail(RunFailure(f"could not write the sweep's results in {outdir}: {getattr(exc, 'strerror', None) or exc}"))
     typer.echo(terminal_table(results, run.how))

@@ -365,6 +365,9 @@ def stop_at(fn):
 
 if where == "rows":  # as a block's rows were just written to results.partial.csv, before they were counted
     results.Results._append_csv = stop_at(results.Results._append_csv)
+elif where == "files":  # once results.csv and .parquet are written, every case finished (the recording next)
+    import rotlab.sweep.report as report
+    report.write_results = stop_at(report.write_results)
 else:  # while a case's scene is built
     scene.build_scene = stop_at(scene.build_scene)
 from rotlab.__main__ import entry
@@ -394,6 +397,23 @@ def test_ctrl_c_stops_an_ensemble_sweep_between_blocks_with_each_case_once(tmp_p
     finished = statuses.count("pass")
     assert 64 <= finished < 400 and statuses.count("error") == 400 - finished
     assert all(row["message"].startswith("not finished (the sweep received SIGINT)") for row in rows if row["status"] == "error")
+
+def test_ctrl_c_while_the_results_files_are_written_lets_them_finish(tmp_path):
+    """Every case finished: a stop signal while results.csv, .parquet and the recording are
+    written is held until they are (exit 130), not left with results.partial.csv alone."""
+    import subprocess
+    import sys
+
+    (tmp_path / "s.toml").write_text(SWEEP.replace("samples = 2", "samples = 200"), encoding="utf-8")
+    (tmp_path / "driver.py").write_text(_STOP_DRIVER, encoding="utf-8")
+    done = subprocess.run([sys.executable, "driver.py", "files", "1"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 130, done.stdout + done.stderr
+    with (tmp_path / "out" / "results.csv").open(encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    assert sorted(int(row["case"]) for row in rows) == list(range(400)) and all(row["status"] == "pass" for row in rows)
+    assert pq.read_table(tmp_path / "out" / "results.parquet").num_rows == 400
+    assert (tmp_path / "out" / "s_sweep.rrd").exists() and not (tmp_path / "out" / "results.partial.csv").exists()
+
 
 
 def test_a_sweep_run_in_process_leaves_the_collector_as_it_found_it(cli, write):
