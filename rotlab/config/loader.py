@@ -17,7 +17,7 @@ from typing import Any, Mapping, Sequence
 from pydantic import BaseModel, ValidationError
 
 from rotlab.config.models import DRIVE_TAGS, LOAD_MODELS, ONE_QUANTITY, SWEEP_TAGS, Scenario
-from rotlab.config.paths import Defaults, drop_siblings, model_defaults, parse_key_path, set_at
+from rotlab.config.paths import Defaults, drop_other_forms, model_defaults, set_at
 from rotlab.errors import InputError
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -144,10 +144,7 @@ def set_value(data: dict[str, Any], path: str, value: Any, where: str, defaults:
     other components are the file's, converted).  What `--set`, the API's
     ``overrides`` and a sweep's cases do to a scenario document."""
     set_at(data, path, value, where, defaults)
-    key = next(part for part in reversed(parse_key_path(path, where)) if isinstance(part, str))  # (omega of initial.omega[0])
-    for group in ONE_QUANTITY:
-        if key in group:
-            drop_siblings(data, path, group, where)
+    drop_other_forms(data, path, ONE_QUANTITY, where)
 
 
 def _with_overrides(data: Mapping[str, Any], source: str, overrides: Mapping[str, Any], duration: float | None) -> dict[str, Any]:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import copy
 import re
 import tomllib
+from collections.abc import Sequence
 from functools import lru_cache
 from typing import Any, Callable
 
@@ -84,16 +85,25 @@ def set_at(data: dict[str, Any], path: str, value: Any, where: str, defaults: De
     node[last] = value
 
 
-def drop_siblings(data: dict[str, Any], path: str, siblings: set[str], where: str) -> None:
-    """Remove the keys ``siblings`` beside the key that ``path`` names or indexes into (``omega``
-    of ``initial.omega[0]``), in its table (already copied by ``set_at``)."""
+def group_of(key: str, groups: Sequence[set[str]]) -> frozenset[str] | None:
+    """The group of ``groups`` that holds ``key`` (None where none does)."""
+    return next((frozenset(group) for group in groups if key in group), None)
+
+
+def drop_other_forms(data: dict[str, Any], path: str, groups: Sequence[set[str]], where: str) -> None:
+    """Remove, beside the key that ``path`` names or indexes into (``omega`` of
+    ``initial.omega[0]``), the other keys of its group of ``groups`` (``omega_rpm``, ``omega_deg``),
+    in its table (already copied by ``set_at``)."""
     parts = parse_key_path(path, where)
     last = max(k for k, part in enumerate(parts) if isinstance(part, str))
+    group = group_of(parts[last], groups)
+    if group is None:
+        return
     node: Any = data
     for part in parts[:last]:
         node = node[part]
     if isinstance(node, dict):
-        for key in siblings - {parts[last]}:
+        for key in group - {parts[last]}:
             node.pop(key, None)
 
 

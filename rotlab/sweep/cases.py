@@ -22,7 +22,7 @@ from pydantic import BaseModel, ValidationError
 
 from rotlab.config import models as cfg
 from rotlab.config.loader import parse_scenario, set_value
-from rotlab.config.paths import model_defaults, parse_key_path
+from rotlab.config.paths import group_of, model_defaults, parse_key_path
 from rotlab.errors import InputError
 
 
@@ -124,18 +124,22 @@ def _key_type(base: cfg.Scenario, path: str) -> Any:
             continue
         if isinstance(obj, dict):  # a table of the user's own keys (a formula's constants): those the file gives
             if part not in obj:
-                close = difflib.get_close_matches(part, list(obj), n=1)
-                hint = f"did you mean '{close[0]}'?" if close else f"give it in the file's {parts[n - 1]} (it gives {', '.join(obj) or 'none'}) to sweep it"
-                raise InputError(parameter_key(path), f"unknown key '{part}': {hint}")
+                otherwise = f"give it in the file's {parts[n - 1]} (it gives {', '.join(obj) or 'none'}) to sweep it"
+                raise InputError(parameter_key(path), f"unknown key '{part}': {_hint(part, list(obj), otherwise)}")
             obj, annotation = obj[part], _element(annotation, 1)
             continue
         fields = type(obj).model_fields if isinstance(obj, BaseModel) else {}
         if part not in fields:
-            close = difflib.get_close_matches(part, list(fields), n=1)
-            hint = f"did you mean '{close[0]}'?" if close else f"allowed keys: {', '.join(fields)}" if fields else "it has no keys"
-            raise InputError(parameter_key(path), f"unknown key '{part}': {hint}")
+            otherwise = f"allowed keys: {', '.join(fields)}" if fields else "it has no keys"
+            raise InputError(parameter_key(path), f"unknown key '{part}': {_hint(part, list(fields), otherwise)}")
         obj, annotation = getattr(obj, part), fields[part].annotation
     return annotation
+
+
+def _hint(part: str, keys: list[str], otherwise: str) -> str:
+    """"did you mean" the key of ``keys`` closest to ``part``, else ``otherwise``."""
+    close = difflib.get_close_matches(part, keys, n=1)
+    return f"did you mean '{close[0]}'?" if close else otherwise
 
 
 def _shape_mismatch(obj: Any, part: str | int, held: str) -> str | None:
@@ -188,8 +192,7 @@ def check_overlaps(paths: list[str]) -> None:
 def _quantities(parts: list[str | int]) -> tuple:
     """The key path's parts with each key that names a quantity given one of several ways
     (``omega``, ``omega_rpm``, ``omega_deg``: ``ONE_QUANTITY``) replaced by that quantity."""
-    return tuple(next((frozenset(group) for group in cfg.ONE_QUANTITY if part in group), part) if isinstance(part, str) else part
-                 for part in parts)
+    return tuple((group_of(part, cfg.ONE_QUANTITY) or part) if isinstance(part, str) else part for part in parts)
 
 
 class Cases(Sequence[Case]):
