@@ -21,12 +21,19 @@ per_call from a one-step, two-sample run; per_step from runs of one scene at two
 * the one-time cost of a method's first call in a process, with the kernels in numba's on-disk
   cache: numba's own first use (its target context imports its numpy and BLAS support: ``init``)
   and loading each kernel (``load``), from fresh subprocesses that run two methods in turn;
+* ``dop853``: per step on a free body, under gravity and with every load kind, per call and per
+  sample; its median rotation per step at rtol 1e-10 over the bench problems and, per load kind,
+  the largest ratio of its max error to rtol there (at rtol 1e-10, atol 1e-12; over the problems
+  with a reference that it follows, error < 1e-3; near a separatrix divided by the amplification);
+* formula loads: the cost per program row (``rotlab.scene.loads.formula_rows``) of a ``rk4`` step,
+  a ``dop853`` step and a ``taylor`` step (a + b N²), the slope over four satellite loads of
+  51–1155 rows (quadratic drag, gravity gradient, a magnetic dipole, B-dot detumbling);
 * the error constants C of the fixed-step methods, err ≈ C (hΩ)^p ΩT, from each method's own
   tolerance probe on every bench problem it applies to (the largest C is kept: the a priori step
   is then never longer than the probe's), and the rotation per ``taylor`` step at the Jorba–Zou
   order (the median over the bench problems).
 
-The printed dictionary is pasted into ``rotlab/methods/cost.py`` (``CONSTANTS``) together with the
+``--only`` measures some groups (printing their keys alone).  The printed dictionary is pasted into ``rotlab/methods/cost.py`` (``CONSTANTS``) together with the
 date and the load average of the run.
 """
 
@@ -64,9 +71,15 @@ def scene_of(data: dict):
 
 FREE = {"body": {"principal_moments": [1.0, 1.6, 2.2]}, "initial": {"omega": [1.0, 0.5, 1.5]}, "time": {"end": 1.0}}
 AXI = {"body": {"principal_moments": [2.0, 2.0, 3.0]}, "initial": {"omega": [0.3, -0.2, 1.5]}, "time": {"end": 1.0}}
-HEAVY = {"body": {"principal_moments": [1.0, 1.5, 2.0], "mass": 1.0, "center_of_mass": [0.1, 0.2, 0.5]},
+HEAVY = {"body": {"principal_moments": [1.0, 1.5, 2.0], "mass": 1.0, "center_of_mass": [0.05, 0.1, 0.25]},
          "initial": {"omega": [1.0, 0.5, 6.0], "euler_313": [0.0, 0.5, 0.0]},
          "loads": [{"type": "gravity", "g": [0.0, 0.0, -9.81]}], "time": {"end": 1.0}}
+
+
+SATELLITE = {"body": {"principal_moments": [0.03, 0.035, 0.01]},
+             "initial": {"omega_deg": [5.0, -4.0, 3.5], "euler_313_deg": [20.0, 40.0, 10.0]}, "time": {"end": 1.0}}
+FORMULA_LOADS = ({"type": "quadratic_drag", "coefficient": 1e-4}, {"type": "gravity_gradient", "orbit_rate": 0.0011},
+                 {"type": "magnetic_dipole", "dipole": [0.05, 0.0, 0.02]}, {"type": "bdot_detumbling", "gain": 2e5, "max_dipole": 0.2})
 
 
 def fit_line(xs: list[float], ys: list[float]) -> tuple[float, float]:
@@ -176,6 +189,72 @@ def taylor_costs(repeats: int) -> dict:
     return out
 
 
+def dop853_costs(repeats: int) -> dict:
+    """Per step (free, forces, loads), per call and per sample, at rtol 1e-10."""
+    dop853 = get_method("dop853")
+    general = build_scene(load_scenario(CONFIGS / "general.toml"))
+    s = Settings(rtol=1e-10, atol=1e-12, max_steps=10**9)
+    out = {}
+    for kind, scene in (("free", scene_of(FREE)), ("forces", scene_of(HEAVY)), ("loads", general)):
+        _, out[kind] = per_step(dop853, scene, lambda n, scene=scene: (s, 0.3 * n / scene.rate_scale), (400, 4000), repeats)
+    scene = scene_of(FREE)
+    out["per_call"] = median_time(lambda: dop853.solve(scene, np.array([0.0, 1e-3]), s, None), 4 * repeats)
+    few, many = np.linspace(0.0, 50.0, 11), np.linspace(0.0, 50.0, 20001)
+    out["per_sample"] = (median_time(lambda: dop853.solve(scene, many, s, None), repeats)
+                         - median_time(lambda: dop853.solve(scene, few, s, None), repeats)) / 19990
+    return out
+
+
+def formula_costs(repeats: int) -> dict:
+    """The cost per program row of a step of rk4, dop853 and taylor (a + b N²): slopes over the
+    satellite's formula loads (their intercepts, the satellite's own base cost, are not kept:
+    the model's base is each method's "loads" cost, general.toml's mix of load kinds)."""
+    rk4, dop853, taylor = get_method("rk4"), get_method("dop853"), get_method("taylor")
+    rows, rk4_steps, dop853_steps, taylor_a, taylor_b = [], [], [], [], []
+    for load in FORMULA_LOADS:
+        scene = scene_of({**SATELLITE, "loads": [load]})
+        rate = scene.rate_scale
+        rows.append(scene.formula_rows)
+        h = 0.01 / rate
+        rk4_steps.append(per_step(rk4, scene, lambda n: (Settings(step=h, max_steps=10**9), h * n), (2000, 16000), repeats)[1])
+        s = Settings(rtol=1e-10, atol=1e-12, max_steps=10**9)
+        dop853_steps.append(per_step(dop853, scene, lambda n: (s, 0.3 * n / rate), (200, 1600), repeats)[1])
+        orders, steps = (8, 12, 16, 20), []
+        for order in orders:
+            so = Settings(rtol=1e-10, atol=1e-12, order=order)
+            steps.append(per_step(taylor, scene, lambda n, so=so: (so, 2.0 * n / rate), (50, 300), repeats)[1])
+        a, b = fit_line([n * n for n in orders], steps)
+        taylor_a.append(a)
+        taylor_b.append(b)
+    return {"rk4": fit_line(rows, rk4_steps)[1], "dop853": fit_line(rows, dop853_steps)[1],
+            "taylor": {"a": fit_line(rows, taylor_a)[1], "b": fit_line(rows, taylor_b)[1]}}
+
+
+def dop853_accuracy() -> dict:
+    """The median rotation per dop853 step at rtol 1e-10 over the bench problems, and per load kind
+    the largest max error / (rtol · amplification) among those with a reference it follows."""
+    from rotlab.bench.problems import reference_solution, state_error
+    from rotlab.methods.choose import work_of
+
+    dop853 = get_method("dop853")
+    radians, ratios = [], {"free": 0.0, "forces": 0.0, "loads": 0.0}
+    for problem in all_problems():
+        scene = build_scene(problem.scenario())
+        t = problem.scenario().time.sample_times()
+        solution = dop853.solve(scene, t, Settings(rtol=1e-10, atol=1e-12, max_steps=10**9), None)
+        work = work_of(scene, t)
+        if solution.steps:
+            radians.append(work.radians / solution.steps)
+        reference = reference_solution(problem, scene, t)
+        if reference.state is None:
+            continue
+        error = state_error(solution.state, reference.state)[0]
+        if error < 1e-3:
+            ratios[work.loads] = max(ratios[work.loads], error / (1e-10 * work.amplification))
+    return {"dop853_radians_per_step": statistics.median(radians), "dop853_radians_per_step_range": (min(radians), max(radians)),
+            "dop853_error_ratio": ratios}
+
+
 def error_constants() -> dict:
     """C of err ≈ C (hΩ)^p ΩT from each fixed-step method's probe on every bench problem (the
     largest), and the median rotation per taylor step at the Jorba–Zou order, rtol 1e-10."""
@@ -206,15 +285,17 @@ def error_constants() -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=9)
+    groups = {"exact": exact_costs, "dmv": dmv_costs, "fixed-step": fixed_step_costs,
+              "taylor": lambda r: {"taylor": taylor_costs(r)}, "dop853": lambda r: {"dop853": dop853_costs(r)},
+              "formulas": lambda r: {"formula_row": formula_costs(r)}, "dop853-accuracy": lambda r: dop853_accuracy(),
+              "error-constants": lambda r: error_constants()}
+    parser.add_argument("--only", nargs="+", choices=list(groups), default=list(groups), help="the groups to measure (all by default)")
     args = parser.parse_args()
     started = time.perf_counter()
     print(f"# 1-min load average at start: {os.getloadavg()[0]:.2f}")
     result = {}
-    result.update(exact_costs(args.repeats))
-    result.update(dmv_costs(args.repeats))
-    result.update(fixed_step_costs(args.repeats))
-    result["taylor"] = taylor_costs(args.repeats)
-    result.update(error_constants())
+    for name in args.only:
+        result.update(groups[name](args.repeats))
     print("CONSTANTS = {")
     for key, value in result.items():
         print(f"    {key!r}: {_fmt(value)},")

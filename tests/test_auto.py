@@ -137,6 +137,53 @@ def test_cost_model_prefers_few_samples_for_exact_and_many_steps_for_dmv():
     assert cost.separatrix((1.0, 2.0, 3.0), (1.0, 0.0, 1.0), 10.0, 1.0)[0] < 1e-13  # far from the separatrix: no floor
 
 
+MAGNETIC_SATELLITE = {"body": {"principal_moments": [0.03, 0.035, 0.01]},
+                      "initial": {"omega_deg": [5.0, -4.0, 3.5], "euler_313_deg": [20.0, 40.0, 10.0]},
+                      "loads": [{"type": "magnetic_dipole", "dipole": [0.05, 0.0, 0.02]}], "time": {"end": 1500.0, "samples": 1501}}
+
+
+@pytest.mark.parametrize("rtol", [1e-7, 1e-9])
+def test_auto_runs_dop853_where_a_large_formula_makes_a_taylor_step_dear_and_meets_rtol(rtol):
+    """A residual dipole in Earth's tilted-dipole field is a 369-row program: a taylor step forms
+    each row's series (~0.1 ms a step at order 13), a dop853 step calls the compiled formula 12
+    times (~4 µs).  auto chose taylor, 5-8× slower than dop853 (its cost model was blind to the
+    formula's size); it now runs dop853 at the tolerance its error ratio on loaded bench scenes
+    asks for, and meets rtol against taylor at rtol 1e-14 (dop853's error here is smooth in its
+    tolerance: 4.6e3-5.7e3 × over 1e-13 … 1e-10)."""
+    from tests.helpers import scenario
+
+    sc = scenario(**MAGNETIC_SATELLITE, solver={"method": "auto", "rtol": rtol, "atol": rtol * 1e-3})
+    auto = rotlab.simulate(sc)
+    ref = rotlab.simulate(sc.model_copy(update={"solver": sc.solver.model_copy(update={"method": "taylor", "rtol": 1e-14, "atol": 1e-17})}))
+    assert auto.stats.method == "dop853", auto.stats.reason
+    assert "auto: dop853 (rtol " in auto.stats.reason and "taylor order" in auto.stats.reason  # what it ran and what it weighed
+    assert auto.stats.details["rtol"] < rtol / 100  # its local tolerance, below rtol by the error ratio
+    assert _error(auto, ref) <= 10 * rtol
+
+
+def test_auto_keeps_taylor_where_a_formula_switches():
+    """detumbling.toml's B-dot law clips each dipole (min, max): dop853 would be 10-15× faster, but
+    its steps cross the clip's kinks and its error is erratic in its tolerance (100 to 3e5 × over
+    1e-13 … 1e-10), where taylor ends its steps at the switches.  auto keeps taylor and says why."""
+    sc = _with(CONFIGS / "detumbling.toml", 1e-9, end=300.0, samples=301)
+    sc = sc.model_copy(update={"solver": sc.solver.model_copy(update={"method": "auto"})})
+    traj = rotlab.simulate(sc)
+    assert traj.stats.method == "taylor" and "no fixed-step method nor dop853: a load switches" in traj.stats.reason
+
+
+def test_cost_model_weighs_the_formula_loads_size():
+    """A formula's rows cost a taylor step r·(a + b N²) and a dop853 step 12 calls' worth: the
+    same span and rates with 1,000 rows make taylor far dearer and dop853 a little, and taylor
+    stays the cheaper on a scene of loads without formulas (general.toml's kinds)."""
+    plain = cost.Work(span=100.0, samples=1001, rate=1.0, breakpoints=0, loads="loads", floor=0.0)
+    formula = cost.Work(span=100.0, samples=1001, rate=1.0, breakpoints=0, loads="loads", floor=0.0, formula_rows=1000)
+    taylor = {w.formula_rows: cost.taylor_estimate(None, 1e-11, w).seconds for w in (plain, formula)}
+    dop853 = {w.formula_rows: cost.dop853_estimate(1e-10, w).seconds for w in (plain, formula)}
+    assert taylor[1000] > 10 * taylor[0] and dop853[1000] < 2 * dop853[0]
+    assert taylor[0] < dop853[0] and dop853[1000] < taylor[1000]
+    assert cost.dop853_estimate(1e-10, plain).error <= 1e-10  # run at the tolerance that meets rtol
+
+
 PURITY_PROBE = """
 import json, sys
 import rotlab
@@ -216,4 +263,5 @@ def test_auto_considers_no_fixed_step_where_a_load_switches_with_no_breakpoint(l
     offered = {e.method for e in candidates(scene, Settings(rtol=1e-10), work_of(scene, t))}
     assert ("rk4" in offered) == fixed_step
     _, why, _ = choose_method(scene, "auto", Settings(rtol=1e-10), t)
-    assert ("no fixed-step method: a load switches" in why) != fixed_step
+    assert ("no fixed-step method nor dop853: a load switches" in why) != fixed_step
+    assert ("dop853" in offered) == fixed_step  # its error is erratic across a kink (its auto_estimates)

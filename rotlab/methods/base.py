@@ -34,6 +34,11 @@ class Settings:
         """The settings a scenario's ``[solver]`` table gives (``rotlab.config.models.Solver``)."""
         return cls(step=solver.step, rtol=solver.rtol, atol=solver.atol, max_steps=solver.max_steps, order=solver.order)
 
+    def at_tolerance(self, rtol: float, order: int | None) -> Settings:
+        """An adaptive run at local tolerance ``rtol`` (atol scaled alike) and ``order``, no step
+        (``auto``'s choice of an error-controlled method)."""
+        return Settings(step=None, rtol=rtol, atol=self.atol * (rtol / self.rtol), max_steps=self.max_steps, order=order)
+
 
 @dataclass
 class Solution:

@@ -5,9 +5,10 @@ the scene (``Method.auto_estimates``: expected wall time and max error from the 
 ``rotlab.methods.cost``) and takes, among those expected within ``ACCURACY_FACTOR`` × rtol, the
 cheapest; when none is (a stepping method's rounding floor near a separatrix, rtol below what
 exact gives), the one with the smallest expected error.  A method that offers no estimate is
-never chosen by cost (``dop853`` and ``rkmk4``: never cheaper than ``taylor`` at equal error on
-the bench, docs/benchmarks.md); when no method's cost model covers a scene (a Python torque),
-``auto`` runs the first adaptive method that supports it, which controls its own error.
+never chosen by cost (``rkmk4``: never cheaper than ``rk4`` or ``taylor`` at equal error on the
+bench, docs/benchmarks.md); when no method's cost model covers a scene (a Python torque, a
+driven rotor), ``auto`` runs the first adaptive method that supports it, which controls its own
+error.
 
 The choice is a pure function of the scenario and settings: the same in any process, after any
 history, on any worker.  The expected costs are steady-state costs; loading a kernel from
@@ -79,7 +80,8 @@ def _choice_key(scene: Scene, settings: Settings, t: np.ndarray) -> tuple | None
 
 
 def work_of(scene: Scene, t: np.ndarray, omega0: np.ndarray | None = None) -> cost.Work:
-    """The cost model's view of a run: span, samples, rate scale, breakpoints, load kind, floor.
+    """The cost model's view of a run: span, samples, rate scale, breakpoints, load kind, floor,
+    formula size.
     ``omega0``: the run starts with this ω (principal frame) instead of the scene's."""
     span = float(t[-1] - t[0])
     omega = (scene.omega0 if omega0 is None else omega0).tolist()
@@ -91,7 +93,7 @@ def work_of(scene: Scene, t: np.ndarray, omega0: np.ndarray | None = None) -> co
     breaks = scene.model.breaks
     inside = int(np.count_nonzero((breaks > min(t[0], t[-1])) & (breaks < max(t[0], t[-1])))) if breaks.size else 0
     return cost.Work(span=abs(span), samples=int(t.shape[0]), rate=rate, breakpoints=inside, loads=loads, floor=floor,
-                     amplification=amplification)
+                     amplification=amplification, formula_rows=scene.formula_rows)
 
 
 def worst_work(scene: Scene, t: np.ndarray, omegas: np.ndarray, floor_limit: float = math.inf) -> tuple[cost.Work | None, np.ndarray]:
@@ -157,7 +159,7 @@ def _auto(scene: Scene, settings: Settings, t: np.ndarray, work: cost.Work | Non
                          for e in others)
     notes = f"; stepping error floor near the separatrix ~{work.floor:.0e}" if work.floor > 1e-3 * settings.rtol else ""
     if scene.has_switches:
-        notes += "; no fixed-step method: a load switches (abs, sign, min or max) where no breakpoint marks it"
+        notes += "; no fixed-step method nor dop853: a load switches (abs, sign, min or max) where no breakpoint marks it"
     why = (f"auto: {best.label}, expected {_seconds(best.seconds)}: {verdict}"
            + (f" (vs {compared})" if compared else "") + f"; {kind}{notes}")
     return best.method, why, get_method(best.method).auto_settings(best, settings), bool(meeting)

@@ -14,7 +14,17 @@ Steps, over a span T of a scene with rate scale Ω (``Scene.rate_scale``) and n 
   for a radius of convergence ρ, i.e. hΩ = R exp(−(ln(1/ε) + 0.7)/(N − 1)); R = 4.4 is the median
   over the bench problems (0.38–1.12 rad per step at order 13, rtol 1e-10: R within ×0.6–×1.8).
   One more step per load breakpoint;
+* ``dop853`` at local tolerance ε: its step controller keeps hΩ ≈ R₈ ε^(1/8) (R₈ from the median
+  rotation per step over the bench problems at rtol 1e-10), 12 evaluations a step; its global
+  error is up to G ε, G the largest ratio of error to rtol measured on the bench problems of the
+  scene's load kind (large where a load kinks between steps: the B-dot clip, table knots), so
+  ``auto`` runs it at ε = rtol / (G · amplification);
 * ``exact``: no steps, a set-up and a cost per sample, and no numba kernel.
+
+A formula load adds to every step a cost proportional to its programs' rows r (operations,
+leaves and auxiliary series, ``formula_rows``): r · c per step of a method that evaluates the
+formula (``rk4``: 4 calls a step, ``dop853``: 12), and r · (a + b N²) per ``taylor`` step, which
+forms each row's Taylor series to order N by interpreting the programs.
 
 The costs are steady-state costs: loading a kernel from numba's cache, paid once per process,
 is not part of them, so that a choice does not depend on what the process ran before.
@@ -47,6 +57,11 @@ CONSTANTS = {  # printed by python benchmarks/fit_cost_model.py
     "rk4": {"free": 4.09e-08, "forces": 9.06e-08, "loads": 2.61e-07, "per_call": 6.18e-06, "per_sample": 6.72e-09},
     "taylor": {"free": {"a": 1.71e-07, "b": 1.55e-09}, "forces": {"a": 2.12e-07, "b": 2.21e-09}, "loads": {"a": 3.4e-07, "b": 5.22e-09},
                "per_sample": 3.37e-08, "per_call": 8.78e-06},
+    # dop853, formula_row, dop853_* (2026-11-28, --only dop853 formulas --repeats 9; dop853-accuracy; load average 1.2-1.4):
+    "dop853": {"free": 5.29e-07, "forces": 6.6e-07, "loads": 2.39e-06, "per_call": 2.72e-05, "per_sample": 3.83e-08},
+    "formula_row": {"rk4": 2.35e-10, "dop853": 7.95e-10, "taylor": {"a": 1.78e-08, "b": 8.24e-10}},
+    "dop853_radians_per_step": 0.398,  # median over the bench problems at rtol 1e-10 (range 0.0213-0.917)
+    "dop853_error_ratio": {"free": 7.28, "forces": 7.83e+04, "loads": 3.03e+03},
     "error_constants": {"dmv-8": 8.4e-06, "dmv-10": 2.53e-07, "dmv-12": 7.36e-09, "splitting-2": 0.0152, "splitting-4": 0.000738,
                         "splitting-6": 5.58e-05, "splitting-8": 3.76e-08, "rk4": 0.00252},
     "taylor_radians_per_step": 0.614,  # median over the bench problems at order 13, rtol 1e-10 (range 0.381–1.12)
@@ -59,6 +74,7 @@ SEPARATRIX_FACTOR = 8.0  # F of the error floor (module docstring)
 EXACT_ERROR = 1e-13  # the exact solutions' error bound in the tests (vs mpmath, 40 digits): ≤ 1e-12 near the separatrix, 1e-15-ish elsewhere
 MAX_ROTATION_PER_STEP = 0.5  # rad: the fixed-step probe's own cap (h ≤ probe span / 40 = 20 rad / 40)
 TAYLOR_EXTRA_ORDERS = 3  # taylor orders tried: Jorba–Zou's N₀ to N₀ + 3 (above, the bench's errors grow: docs/benchmarks.md)
+DOP853_MIN_TOLERANCE = 1e-15  # below, its steps resolve nothing more in double precision
 AMPLIFICATION = 2.5e-5  # γ of the error amplification 1 + γ κ near the separatrix (module docstring)
 
 
@@ -87,13 +103,16 @@ class Estimate(NamedTuple):
         name = self.method if self.order is None or self.method == "taylor" else f"{self.method}-{self.order}"
         if self.method == "taylor":
             return f"taylor order {self.order}"
+        if self.rtol is not None:
+            return f"{name} (rtol {self.rtol:.2g})"
         return name if self.step is None else f"{name} (h = {self.step:.3g} s)"
 
 
 @dataclass(frozen=True)
 class Work:
     """What the cost depends on: span T (s), samples n, rate scale Ω (rad/s), breakpoints, load kind
-    ("free" | "forces" | "loads") and the stepping methods' error floor; ``radians`` ΩT and the
+    ("free" | "forces" | "loads"), the stepping methods' error floor and the size of the formula
+    loads; ``radians`` ΩT and the
     sample ``interval`` T/(n − 1) follow (computed once: every estimate reads them)."""
 
     span: float
@@ -103,6 +122,7 @@ class Work:
     loads: str
     floor: float
     amplification: float = 1.0  # how much a stepping method's error exceeds its tolerance (separatrix)
+    formula_rows: int = 0  # rows of the formula loads' programs (module docstring)
     radians: float = field(init=False)
     interval: float = field(init=False)
 
@@ -135,7 +155,7 @@ def fixed_step_estimate(name: str, order: int | None, p: int, target: float, wor
         per_step = c["per_step_a"] + c["per_step_b"] / -math.log(x_run)
     else:
         c = CONSTANTS[label]
-        per_step = c.get(work.loads, c.get("forces", 0.0))
+        per_step = c.get(work.loads, c.get("forces", 0.0)) + CONSTANTS["formula_row"].get(label, 0.0) * work.formula_rows
     seconds = c["per_call"] + per_step * steps + c["per_sample"] * work.samples
     if probe:
         seconds += 2.0 * c["per_call"] + 120.0 * per_step + PROBE_PYTHON
@@ -148,7 +168,10 @@ def taylor_seconds(order: int, tolerance: float, work: Work) -> float:
     c = CONSTANTS["taylor"]
     x = TAYLOR_RADIUS * math.exp(-(math.log(1.0 / tolerance) + 0.7) / (order - 1))
     steps = work.radians / x + work.breakpoints + 1
-    return c["per_call"] + (c[work.loads]["a"] + c[work.loads]["b"] * order * order) * steps + c["per_sample"] * work.samples
+    row = CONSTANTS["formula_row"]["taylor"]
+    per_row = row["a"] + row["b"] * order * order
+    per_step = c[work.loads]["a"] + c[work.loads]["b"] * order * order + per_row * work.formula_rows
+    return c["per_call"] + per_step * steps + c["per_sample"] * work.samples
 
 
 def taylor_estimate(order: int | None, tolerance: float, work: Work) -> Estimate:
@@ -162,6 +185,19 @@ def taylor_estimate(order: int | None, tolerance: float, work: Work) -> Estimate
         seconds = taylor_seconds(order, tolerance, work)
     error = max(tolerance * work.amplification, work.floor)
     return Estimate("taylor", seconds, error, order, None, tolerance)
+
+
+def dop853_estimate(rtol: float, work: Work) -> Estimate:
+    """``dop853`` run at the local tolerance ε = rtol / (G · amplification) that is expected to meet
+    rtol (module docstring), at least ``DOP853_MIN_TOLERANCE``."""
+    c = CONSTANTS["dop853"]
+    ratio = CONSTANTS["dop853_error_ratio"][work.loads] * work.amplification
+    tolerance = max(rtol / ratio, DOP853_MIN_TOLERANCE)
+    x = CONSTANTS["dop853_radians_per_step"] * (tolerance / 1e-10) ** 0.125
+    steps = work.radians / x + work.breakpoints + 1
+    per_step = c[work.loads] + CONSTANTS["formula_row"]["dop853"] * work.formula_rows
+    seconds = c["per_call"] + per_step * steps + c["per_sample"] * work.samples
+    return Estimate("dop853", seconds, max(tolerance * ratio, work.floor), None, None, tolerance)
 
 
 def separatrix(moments: Sequence[float], omega: Sequence[float], span: float, rate: float) -> tuple[float, float]:

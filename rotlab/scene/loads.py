@@ -173,6 +173,14 @@ def has_switches(loads: LoadArrays) -> bool:
     return bool(np.isin(programs.code[:, 0], [opcodes.ABS, opcodes.SIGN, opcodes.MIN, opcodes.MAX]).any())
 
 
+def formula_rows(loads: LoadArrays) -> int:
+    """Rows of the formula loads' programs (operations and leaves, and the auxiliary series
+    ``taylor`` forms for some operations): what a step's work on the formulas scales with
+    (``rotlab.methods.cost``)."""
+    programs = loads.expressions
+    return 0 if programs is None else int(programs.code.shape[0] + programs.aux)
+
+
 def active_forces(loads: LoadArrays) -> np.ndarray:
     """Rows of ``loads.forces`` that can exert a torque (non-zero arm and force)."""
     arms, forces = _points(loads.forces), _force_vectors(loads.forces)

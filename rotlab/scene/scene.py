@@ -29,6 +29,7 @@ from rotlab.scene.loads import (
     active_forces,
     build_model,
     compile_loads,
+    formula_rows,
     has_nonconservative,
     has_switches,
     load_rates,
@@ -103,6 +104,11 @@ class Rigid:
         return has_switches(self.loads) or self.loads.user is not None
 
     @cached_property
+    def formula_rows(self) -> int:
+        """The size of the formula loads' programs (``rotlab.scene.loads.formula_rows``)."""
+        return formula_rows(self.loads)
+
+    @cached_property
     def each_load(self) -> tuple[tuple[LoadArrays, Model], ...]:
         """Each load of ``specs`` alone: its arrays and a model of ``model``'s numba type (the
         groups the scene has present, empty where this load has no rows; no Python torque), so
@@ -150,6 +156,7 @@ class Scene:
     is_principal = _rigid_field("is_principal")
     shortest_window = _rigid_field("shortest_window")
     has_switches = _rigid_field("has_switches")
+    formula_rows = _rigid_field("formula_rows")
 
     def explain_fault(self, fault: Fault) -> str:
         """A run's failure message for the fault one of its compiled loads recorded."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from rotlab.methods.base import ADAPTIVE, LocalSolution, ProgressCallback, Settings, Solution
-from rotlab.methods.cost import Estimate, Work
+from rotlab.methods.cost import Estimate, Work, dop853_estimate
 from rotlab.methods.stepping import adaptive_failure_message, initial_state, run_chunks
 from rotlab.scene.scene import Scene
 
@@ -27,10 +27,19 @@ class DOP853:
         return None
 
     def auto_estimates(self, scene: Scene, settings: Settings, work: Work) -> list[Estimate]:
-        return []  # never cheaper than taylor at equal error on the bench: auto runs it only where no cost model applies
+        """At the local tolerance expected to meet rtol (``cost.dop853_estimate``).  None where a
+        load switches (abs, sign, min or max) with no breakpoint: its steps cross the kink and
+        its error is erratic in the tolerance (detumbling.toml: 100 to 3e5 × rtol over rtol
+        1e-13 … 1e-10, against taylor's 1–23, whose steps end at the switches); none for a Python
+        torque or a driven rotor, whose cost and smoothness no model covers (auto then runs it
+        for its error control, ``rotlab.methods.choose``); none with ``solver.order`` (it has one)."""
+        if scene.has_switches or scene.loads.drives is not None or settings.order is not None:
+            return []
+        return [dop853_estimate(settings.rtol, work)]
 
     def auto_settings(self, estimate: Estimate, settings: Settings) -> Settings:
-        return settings
+        """The estimate's local tolerance (atol scaled alike)."""
+        return settings.at_tolerance(estimate.rtol, None)
 
     def local_solution(self, scene: Scene, t: np.ndarray, settings: Settings) -> LocalSolution:
         """Its steps from (t0, y) at the run's tolerances, ending at t1 (``Method.local_solution``)."""

@@ -57,8 +57,7 @@ class Taylor:
 
     def auto_settings(self, estimate: Estimate, settings: Settings) -> Settings:
         """The estimate's order and local tolerance (atol scaled alike), steps from them."""
-        scale = estimate.rtol / settings.rtol
-        return Settings(step=None, rtol=estimate.rtol, atol=settings.atol * scale, max_steps=settings.max_steps, order=estimate.order)
+        return settings.at_tolerance(estimate.rtol, estimate.order)
 
     def order_for(self, settings: Settings) -> int:
         if settings.order is not None:
