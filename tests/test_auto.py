@@ -265,3 +265,21 @@ def test_auto_considers_no_fixed_step_where_a_load_switches_with_no_breakpoint(l
     _, why, _ = choose_method(scene, "auto", Settings(rtol=1e-10), t)
     assert ("no fixed-step method nor dop853: a load switches" in why) != fixed_step
     assert ("dop853" in offered) == fixed_step  # its error is erratic across a kink (its auto_estimates)
+
+
+def test_a_method_that_steps_across_a_formulas_switch_says_so_in_its_reason():
+    """dop853 (or a fixed step) crosses the kink of a formula's min/max/abs/sign, where rtol does
+    not bound its error: configs/detumbling.toml at its own rtol 1e-9 is 3.7e-6 off taylor at
+    rtol 1e-14.  The run's reason (summary, run report) says so and names taylor, whose steps end
+    at the switches; taylor's own runs, smooth formulas and Python torques get no such note."""
+    from tests.helpers import scenario
+
+    note = "steps across it: its error there is not bounded by rtol (taylor ends its steps at the switches)"
+    switching = rotlab.load(CONFIGS / "detumbling.toml", duration=20.0)
+    for method in ("dop853", "rk4"):
+        assert note in rotlab.simulate(switching, method=method).stats.reason, method
+    assert "steps across it" not in rotlab.simulate(switching, method="taylor").stats.reason
+    smooth = scenario(**{**MAGNETIC_SATELLITE, "time": {"end": 20.0}}, solver={"method": "dop853"})
+    assert "steps across it" not in rotlab.simulate(smooth).stats.reason
+    python = rotlab.simulate(smooth, torque=lambda t, q, w: (0.0, 0.0, -1e-6 * w[2]))
+    assert "steps across it" not in python.stats.reason

@@ -74,7 +74,9 @@ class Method(Protocol):
     evaluations per accepted step, the method's cost unit (0 when it evaluates none).
     ``auto_estimates`` / ``auto_settings``: what ``auto`` (``rotlab.methods.choose``) may run it
     with and at what expected cost; ``given_step_preference``: its rank among the FIXED methods
-    when ``auto`` is given ``solver.step`` (None: never).
+    when ``auto`` is given ``solver.step`` (None: never); ``ends_steps_at_switches``: its steps
+    end where a formula's abs, sign, min or max switches (else they cross the kink, and its
+    error there is not controlled).
     """
 
     name: str
@@ -84,6 +86,7 @@ class Method(Protocol):
     orders: tuple[int, ...]
     order_of_accuracy: int | None
     given_step_preference: int | None
+    ends_steps_at_switches: bool
 
     def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
         """Right-hand-side evaluations per step for ``scene`` at ``order``."""

@@ -48,6 +48,7 @@ class FixedStepMethod:
     given_step_preference: int | None = None  # rank when auto is given solver.step (``rotlab.methods.base.Method``)
     stepping = FIXED
     adaptive = False
+    ends_steps_at_switches = False
 
     def auto_estimates(self, scene: Scene, settings: Settings, work: cost.Work) -> list[cost.Estimate]:
         """Each order of ``auto_orders`` at the step that meets rtol (``cost.fixed_step_estimate``;

@@ -19,6 +19,7 @@ class DOP853:
     orders: tuple[int, ...] = ()
     order_of_accuracy = 8
     given_step_preference = None
+    ends_steps_at_switches = False
 
     def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
         return 12  # 12 stages, the 13th is the next step's first (FSAL); dense output adds 3 per sampled step

@@ -31,6 +31,7 @@ class Exact:
     orders: tuple[int, ...] = ()
     order_of_accuracy = None
     given_step_preference = None
+    ends_steps_at_switches = False
 
     def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
         return 0

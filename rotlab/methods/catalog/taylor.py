@@ -36,6 +36,7 @@ class Taylor:
     orders = tuple(range(MIN_ORDER, MAX_ORDER + 1))  # solver.order; default from rtol
     order_of_accuracy = None  # chosen per run (``order_for``)
     given_step_preference = None
+    ends_steps_at_switches = True
 
     def evaluations_per_step(self, scene: Scene, order: int | None) -> int:
         return 0  # no right-hand-side evaluation: one Taylor series (O(order²) products) per step
