@@ -156,7 +156,7 @@ def test_auto_runs_dop853_where_a_large_formula_makes_a_taylor_step_dear_and_mee
     auto = rotlab.simulate(sc)
     ref = rotlab.simulate(sc.model_copy(update={"solver": sc.solver.model_copy(update={"method": "taylor", "rtol": 1e-14, "atol": 1e-17})}))
     assert auto.stats.method == "dop853", auto.stats.reason
-    assert "auto: dop853 (rtol " in auto.stats.reason and "taylor order" in auto.stats.reason  # what it ran and what it weighed
+    assert "auto: dop853 (its rtol " in auto.stats.reason and "taylor order" in auto.stats.reason  # what it ran and what it weighed
     assert auto.stats.details["rtol"] < rtol / 100  # its local tolerance, below rtol by the error ratio
     assert _error(auto, ref) <= 10 * rtol
 
@@ -279,7 +279,29 @@ def test_a_method_that_steps_across_a_formulas_switch_says_so_in_its_reason():
     for method in ("dop853", "rk4"):
         assert note in rotlab.simulate(switching, method=method).stats.reason, method
     assert "steps across it" not in rotlab.simulate(switching, method="taylor").stats.reason
+    stepped = switching.model_copy(update={"solver": switching.solver.model_copy(update={"method": "auto", "step": 0.05})})
+    assert note in rotlab.simulate(stepped).stats.reason  # auto given solver.step: rk4
     smooth = scenario(**{**MAGNETIC_SATELLITE, "time": {"end": 20.0}}, solver={"method": "dop853"})
     assert "steps across it" not in rotlab.simulate(smooth).stats.reason
     python = rotlab.simulate(smooth, torque=lambda t, q, w: (0.0, 0.0, -1e-6 * w[2]))
     assert "steps across it" not in python.stats.reason
+
+
+def test_an_ensemble_sweep_with_a_method_that_crosses_switches_says_so(cli, write):
+    """The ensemble sweep's first line gives the method's reason as a single run does: "as the
+    file asks" and, on a switching formula, that its error there is not bounded by rtol."""
+    text = (CONFIGS / "detumbling.toml").read_text(encoding="utf-8").replace("end = 6000.0", "end = 20.0").replace("samples = 6001", "samples = 21")
+    text += '\n[sweep]\nseed = 1\nsamples = 4\n[sweep.parameters]\n"initial.omega_deg" = { sphere = 8.0 }\n'
+    result = cli("sweep", str(write("s.toml", text)), "-o", "out", "-j", "1")
+    assert result.exit_code == 0, result.stdout + result.stderr
+    assert "ensemble kernels (dop853" in result.stdout and "as the file asks; a formula switches" in result.stdout, result.stdout
+
+
+def test_dop853_reads_scipys_table_without_importing_scipy_integrate():
+    """rotlab.core.dop853 executes SciPy's coefficient file alone: importing scipy.integrate cost a
+    run 0.5-0.8 s before its first step.  The table is SciPy's, entry for entry."""
+    probe = ("import sys, numpy as np, rotlab.core.dop853 as d; assert 'scipy.integrate' not in sys.modules; "
+             "from scipy.integrate._ivp import dop853_coefficients as c; "
+             "assert all(np.array_equal(getattr(d, '_' + k), np.asarray(getattr(c, k))) for k in ('A', 'C', 'E3', 'E5', 'D'))")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]

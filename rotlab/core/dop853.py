@@ -7,23 +7,43 @@ e₅ = Σ E5_j k_j, e₃ = Σ E3_j k_j.  Step factor 0.9 · err^(−1/8) clipped
 as three square roots, correctly rounded on every target).
 Dense output: 3 more stages and the degree-7 interpolant, evaluated at every sample in
 (t, t + h] — so the output times never shorten a step.
-The Butcher tableau is read from SciPy's published DOP853 coefficient table.
+The Butcher tableau is read from SciPy's published DOP853 coefficient table
+(``scipy/integrate/_ivp/dop853_coefficients.py``), as a file: importing ``scipy.integrate``
+costs 0.5–0.8 s, which a run would pay before its first step.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import math
+from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 from numba import njit
 from numba.extending import overload
-from scipy.integrate._ivp import dop853_coefficients as _coef
 
 from rotlab.core.dynamics import all_finite, count_at_or_below, next_piece, rhs_called, rhs_llvm_inlined, state_size, store_row
 from rotlab.core.kernel_status import NONFINITE, OK, STEP_TOO_SMALL, state_status
 from rotlab.core.targets import gpu_overload, next_toward, on_gpu, work_matrix, work_vector
 
 
+def _scipy_table() -> ModuleType:
+    """SciPy's DOP853 coefficient module, executed from its file without importing its package
+    (the module needs numpy alone); imported the usual way where that file is not found."""
+    scipy = importlib.util.find_spec("scipy")
+    path = Path(next(iter(scipy.submodule_search_locations or ())), "integrate", "_ivp", "dop853_coefficients.py") if scipy else None
+    if path is None or not path.is_file():
+        from scipy.integrate._ivp import dop853_coefficients
+
+        return dop853_coefficients
+    spec = importlib.util.spec_from_file_location("rotlab_scipy_dop853_coefficients", path)
+    module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
+    spec.loader.exec_module(module)  # type: ignore[union-attr]
+    return module
+
+
+_coef = _scipy_table()
 _A = np.ascontiguousarray(_coef.A, dtype=np.float64)  # (16, 16)
 _C = np.ascontiguousarray(_coef.C, dtype=np.float64)  # (16,)
 _E3 = np.ascontiguousarray(_coef.E3, dtype=np.float64)  # (13,)

@@ -195,7 +195,8 @@ def _fixed_step_given(scene: Scene, settings: Settings, kind: str) -> tuple[str,
     ranked = sorted((m for m in all_methods() if m.stepping == FIXED and m.given_step_preference is not None),
                     key=lambda m: m.given_step_preference)
     method = next(m for m in ranked if m.unsupported(scene) is None)
-    return method.name, f"auto: solver.step = {settings.step:g} s given: {method.name}, the fixed-step method for this {kind}", settings
+    return (method.name, f"auto: solver.step = {settings.step:g} s given: {method.name}, the fixed-step method for this {kind}"
+            + crossing_note(scene, method), settings)
 
 
 def _seconds(x: float) -> str:

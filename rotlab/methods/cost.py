@@ -104,7 +104,7 @@ class Estimate(NamedTuple):
         if self.method == "taylor":
             return f"taylor order {self.order}"
         if self.rtol is not None:
-            return f"{name} (rtol {self.rtol:.2g})"
+            return f"{name} (its rtol {self.rtol:.2g})"
         return name if self.step is None else f"{name} (h = {self.step:.3g} s)"
 
 

@@ -238,6 +238,7 @@ def ensemble_plan_or_why(p: SweepPlan, device: str = "cpu") -> EnsemblePlan | st
         return "only initial conditions may vary (the cases share one body, loads and method)"
     from rotlab.ensemble.block import GPU_METHODS, has_ensemble_kernel, unsupported_on_gpu, unsupported_scene
     from rotlab.methods.base import Settings
+    from rotlab.methods.choose import crossing_note
     from rotlab.methods.registry import get_method
     from rotlab.scene.scene import build_scene
 
@@ -254,7 +255,8 @@ def ensemble_plan_or_why(p: SweepPlan, device: str = "cpu") -> EnsemblePlan | st
         if device == "cuda" and unsupported_on_gpu(method) is not None:
             return f"auto chose {choice.label}, which has no GPU kernel: give solver.method, one of {', '.join(GPU_METHODS)}"
     else:
-        method, settings, why = get_method(solver.method), Settings.of(solver), "as the file asks"
+        method, settings = get_method(solver.method), Settings.of(solver)
+        why = "as the file asks" + crossing_note(scene, method)
     refusal = (unsupported_on_gpu(method) if device == "cuda" else None) \
         or (None if has_ensemble_kernel(method) else f"method {method.name!r} has no ensemble kernel") or unsupported_scene(scene) \
         or method.unsupported(scene)

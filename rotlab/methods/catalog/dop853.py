@@ -56,7 +56,7 @@ class DOP853:
         return advance
 
     def solve(self, scene: Scene, t: np.ndarray, settings: Settings, progress: ProgressCallback | None) -> Solution:
-        from rotlab.core import dop853 as kernel  # (its coefficients come from scipy.integrate: imported when it runs, not when auto weighs it)
+        from rotlab.core import dop853 as kernel  # (imported when it runs, not when auto weighs it)
 
         y = initial_state(scene)
         model = scene.model
