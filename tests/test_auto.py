@@ -182,6 +182,8 @@ def test_cost_model_weighs_the_formula_loads_size():
     assert taylor[1000] > 10 * taylor[0] and dop853[1000] < 2 * dop853[0]
     assert taylor[0] < dop853[0] and dop853[1000] < taylor[1000]
     assert cost.dop853_estimate(1e-10, plain).error <= 1e-10  # run at the tolerance that meets rtol
+    tight = cost.dop853_estimate(1e-12, plain)  # its error stops falling below 1e-14: it does not claim 10·rtol here
+    assert tight.rtol == cost.DOP853_MIN_TOLERANCE and tight.error > 1e-11
 
 
 PURITY_PROBE = """
