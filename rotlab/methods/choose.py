@@ -29,7 +29,6 @@ from rotlab.kept import Kept
 from rotlab.methods import cost
 from rotlab.methods.base import ADAPTIVE, FIXED, Method, Settings
 from rotlab.methods.registry import METHODS, all_methods, get_method
-from rotlab.scene.loads import has_switches
 from rotlab.scene.scene import TORQUE_FREE, Scene
 
 ACCURACY_FACTOR = 10.0  # "meets rtol": expected max error ≤ this × rtol
@@ -73,7 +72,7 @@ def crossing_note(scene: Scene, method: Method) -> str:
     """What the run's reason adds when ``method`` steps across a formula load's switches (abs,
     sign, min, max with no breakpoint), where rtol does not bound its error (``detumbling.toml``,
     ``dop853`` at rtol 1e-9: max error 3.7e-6); empty otherwise."""
-    if method.ends_steps_at_switches or not has_switches(scene.loads):
+    if method.ends_steps_at_switches or not scene.formula_switches:
         return ""
     instead = next((m.name for m in all_methods() if m.ends_steps_at_switches and m.unsupported(scene) is None), None)
     return (f"; a formula switches (abs, sign, min or max) where no breakpoint marks it, and {method.name} steps across it: "

@@ -97,11 +97,17 @@ class Rigid:
         return shortest_window(self.loads)
 
     @cached_property
+    def formula_switches(self) -> bool:
+        """A formula (a load's, ``pd_control``'s, a rotor drive's) uses abs, sign, min or max:
+        it may jump or kink where no breakpoint marks it (``rotlab.scene.loads.has_switches``)."""
+        return has_switches(self.loads)
+
+    @cached_property
     def has_switches(self) -> bool:
-        """A load may jump or kink where no breakpoint marks it: abs, sign, min or max in a formula
-        load (``pd_control`` included), or a Python torque, whose smoothness is unknown.  A fixed
-        step crosses such a switch at low order, whatever its probe measured between switches."""
-        return has_switches(self.loads) or self.loads.user is not None
+        """A load may jump or kink where no breakpoint marks it: ``formula_switches``, or a Python
+        torque, whose smoothness is unknown.  A fixed step crosses such a switch at low order,
+        whatever its probe measured between switches."""
+        return self.formula_switches or self.loads.user is not None
 
     @cached_property
     def formula_rows(self) -> int:
@@ -156,6 +162,7 @@ class Scene:
     is_principal = _rigid_field("is_principal")
     shortest_window = _rigid_field("shortest_window")
     has_switches = _rigid_field("has_switches")
+    formula_switches = _rigid_field("formula_switches")
     formula_rows = _rigid_field("formula_rows")
 
     def explain_fault(self, fault: Fault) -> str:
