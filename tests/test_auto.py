@@ -290,6 +290,23 @@ def test_a_method_that_steps_across_a_formulas_switch_says_so_in_its_reason():
     assert "steps across it" not in python.stats.reason
 
 
+@pytest.mark.parametrize("torque, switches", [
+    (["-abs(k)*omega[0]", "max(k, 0.01)*omega[1]", "sign(k - 1)*min(2, k)"], False),  # switches of constants only
+    (["-k*abs(omega[0])", "0", "0"], True),
+    (["0", "max(k*gamma[2], 0.01)", "0"], True),
+    (["0", "0", "sign(sin(t))*k"], True),  # in time alone: still where no breakpoint marks it
+])
+def test_a_switch_is_one_whose_argument_varies(torque, switches):
+    """abs, sign, min and max switch only where their argument depends on the time or the state:
+    ``abs(k)`` of a constant is smooth, and leaves dop853 and the fixed steps to auto, with no note."""
+    from tests.helpers import scenario
+
+    sc = scenario(body={"principal_moments": [1.0, 2.0, 3.0]}, initial={"omega": [0.1, 1.0, 0.1]},
+                  loads=[{"type": "expression", "frame": "body", "constants": {"k": 0.3}, "torque": torque}])
+    assert build_scene(sc).has_switches is switches
+    assert ("steps across it" in rotlab.simulate(sc, method="dop853").stats.reason) is switches
+
+
 def test_an_ensemble_sweep_with_a_method_that_crosses_switches_says_so(write):
     """The ensemble sweep's plan (its first line) gives the method's reason as a single run does:
     "as the file asks" and, on a switching formula, that its error there is not bounded by rtol."""

@@ -20,7 +20,7 @@ from rotlab.core.dynamics import euler_coefficients
 from rotlab.core.model import Drives, Expressions, Model
 from rotlab.core.quaternion import from_matrix, rotate_to_space_array
 from rotlab.core.torques import (
-    BODY, EX_COLUMNS, EX_OFF, EX_ON, EX_RATE, F_COLUMNS, F_FORCE, F_POINT,
+    BODY, EX_COLUMNS, EX_OFF, EX_ON, EX_PROGRAMS, EX_RATE, F_COLUMNS, F_FORCE, F_POINT,
     T_AMP, T_COLUMNS, T_OFF, T_OFFSET, T_ON, T_W, TB_COLUMNS, TB_OFF, TB_ON,
 )
 from rotlab.scene.load_kinds import Compiling, drive_formula, kind_of
@@ -164,13 +164,32 @@ def _expression_windows(loads: LoadArrays) -> np.ndarray:
 
 
 def has_switches(loads: LoadArrays) -> bool:
-    """True when an expression load (or a rotor's drive) uses abs, sign, min or max (``pd_control`` included): a
-    torque that jumps or kinks where no breakpoint marks it.  A fixed step runs across such a
-    switch at low order, whatever its probe measured between switches."""
-    programs = loads.expressions if loads.expressions is not None else (loads.drives.ex if loads.drives is not None else None)
-    if programs is None:  # (the loads' and the drives' programs share their code)
-        return False
-    return bool(np.isin(programs.code[:, 0], [opcodes.ABS, opcodes.SIGN, opcodes.MIN, opcodes.MAX]).any())
+    """True when an expression load (or a rotor's drive) uses abs, sign, min or max (``pd_control`` included)
+    on an argument that varies with the time or the state: a torque that jumps or kinks where no
+    breakpoint marks it.  A fixed step runs across such a switch at low order, whatever its probe
+    measured between switches.  ``abs(k)`` or ``max(k, 0.01)`` of constants never switches."""
+    groups = [ex for ex in (loads.expressions, loads.drives.ex if loads.drives is not None else None) if ex is not None]
+    return any(_switches(ex.code[int(start):int(end)])
+               for ex in groups for row in ex.rows for start, end in row[EX_PROGRAMS:].reshape(-1, 2))
+
+
+_SWITCHES = (opcodes.ABS, opcodes.SIGN, opcodes.MIN, opcodes.MAX)
+
+
+def _switches(code: np.ndarray) -> bool:
+    """Whether the postfix program ``code`` (rows opcode, argument, …) applies a switch to an
+    argument that depends on an input (t, ω, Λ, γ, L): a stack of "varies" flags, CONST false,
+    VAR true, an operation's result varying when an argument does."""
+    varies: list[bool] = []
+    for opcode in code[:, 0]:
+        if opcode in (opcodes.CONST, opcodes.VAR):
+            varies.append(opcode == opcodes.VAR)
+            continue
+        arguments = [varies.pop()] if opcode < opcodes.FIRST_BINARY else [varies.pop(), varies.pop()]
+        if opcode in _SWITCHES and any(arguments):
+            return True
+        varies.append(any(arguments))
+    return False
 
 
 def formula_rows(loads: LoadArrays) -> int:
