@@ -90,7 +90,8 @@ TAYLOR_RADIUS = _taylor_radius()
 
 class Estimate(NamedTuple):
     """One candidate: registry name, expected seconds and max error, and what it runs with
-    (``order``, ``step`` None: the method derives it; ``rtol`` for taylor)."""
+    (``order``, ``step`` None: the method derives it; ``rtol`` for taylor; ``probe``: the run
+    takes the step of its own tolerance probe, of which ``step`` is the a priori estimate)."""
 
     method: str
     seconds: float
@@ -98,6 +99,7 @@ class Estimate(NamedTuple):
     order: int | None = None
     step: float | None = None
     rtol: float | None = None
+    probe: bool = False
 
     @property
     def label(self) -> str:
@@ -106,7 +108,9 @@ class Estimate(NamedTuple):
             return f"taylor order {self.order}"
         if self.rtol is not None:
             return f"{name} (its rtol {self.rtol:.2g})"
-        return name if self.step is None else f"{name} (h = {self.step:.3g} s)"
+        if self.step is None:
+            return name
+        return f"{name} (its probe's step, a priori h ≈ {self.step:.3g} s)" if self.probe else f"{name} (h = {self.step:.3g} s)"
 
 
 @dataclass(frozen=True)
@@ -161,7 +165,7 @@ def fixed_step_estimate(name: str, order: int | None, p: int, target: float, wor
     if probe:
         seconds += 2.0 * c["per_call"] + 120.0 * per_step + PROBE_PYTHON
     error = max(constant * x**p * radians * work.amplification, work.floor)
-    return Estimate(name, seconds, error, order, work.interval / per_interval)
+    return Estimate(name, seconds, error, order, work.interval / per_interval, probe=probe)
 
 
 def taylor_seconds(order: int, tolerance: float, work: Work) -> float:
