@@ -29,6 +29,7 @@ Importing this module imports numba-cuda (not rotlab's configuration, recording 
 
 from __future__ import annotations
 
+import sys
 import threading
 from contextlib import contextmanager
 
@@ -114,15 +115,25 @@ def _simulated_arrays(kernel):
 
 
 _COMPILING = threading.Lock()
+# The simulator runs a block's threads as Python threads and polls them in a loop that holds the
+# GIL for a switch interval at a time (5 ms): at 0.5 ms its threads run 2.6× as much of the time
+# (bench_gpu.py's rk4 row, 2 cases, loaded kernels: 10.7-10.9 -> 3.7-4.0 s, two alternating runs each).
+SIMULATED_SWITCH_INTERVAL = 5e-4
 
 
 @contextmanager
 def _compiling():
     """Kernels compiled (on their first launch) in this block get ``-fma=<FUSED_MULTIPLY_ADD>``:
     numba-cuda passes NVVM no such option unless ``fastmath`` (which also flushes subnormals and
-    approximates division and square roots), and NVVM's default is to fuse."""
+    approximates division and square roots), and NVVM's default is to fuse.  In numba's CUDA
+    simulator, launches in this block run at ``SIMULATED_SWITCH_INTERVAL``."""
     if config.ENABLE_CUDASIM:
-        yield
+        previous = sys.getswitchinterval()
+        sys.setswitchinterval(SIMULATED_SWITCH_INTERVAL)
+        try:
+            yield
+        finally:
+            sys.setswitchinterval(previous)
         return
     from numba.cuda.cudadrv import nvvm
 
