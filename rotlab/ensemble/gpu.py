@@ -128,12 +128,13 @@ def _compiling():
     approximates division and square roots), and NVVM's default is to fuse.  In numba's CUDA
     simulator, launches in this block run at ``SIMULATED_SWITCH_INTERVAL``."""
     if config.ENABLE_CUDASIM:
-        previous = sys.getswitchinterval()
-        sys.setswitchinterval(SIMULATED_SWITCH_INTERVAL)
-        try:
-            yield
-        finally:
-            sys.setswitchinterval(previous)
+        with _COMPILING:  # (the interval is the process's: one block at a time, as below)
+            previous = sys.getswitchinterval()
+            sys.setswitchinterval(SIMULATED_SWITCH_INTERVAL)
+            try:
+                yield
+            finally:
+                sys.setswitchinterval(previous)
         return
     from numba.cuda.cudadrv import nvvm
 

@@ -98,8 +98,9 @@ class Rigid:
 
     @cached_property
     def formula_switches(self) -> bool:
-        """A formula (a load's, ``pd_control``'s, a rotor drive's) uses abs, sign, min or max:
-        it may jump or kink where no breakpoint marks it (``rotlab.scene.loads.has_switches``)."""
+        """A formula (a load's, ``pd_control``'s, a rotor drive's) applies abs, sign, min or max to
+        an argument that varies with the time or the state: it may jump or kink where no
+        breakpoint marks it (``rotlab.scene.loads.has_switches``)."""
         return has_switches(self.loads)
 
     @cached_property
