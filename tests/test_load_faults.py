@@ -171,15 +171,16 @@ SLOW_TORQUE = textwrap.dedent("""
     import rotlab
     from rotlab.errors import Interrupted
 
-    def slow(t, q, omega):  # ~0.1-0.3 s a call: a kernel that never returns to Python for minutes
+    def slow(t, q, omega):  # after t = 0.05 s, ~0.1-0.3 s a call: a kernel that never returns to Python for minutes
         s = 0.0
-        for i in range(20_000_000):
+        for i in range(20_000_000 if t > 0.05 else 1):
             s += np.sin(i * 1e-9)
         return (0.0, s * 1e-12, 0.0)
 
     import tomllib
     from rotlab.config.loader import parse_scenario
     scenario = parse_scenario(tomllib.loads(sys.argv[1]), source="slow.toml", overrides={"solver.method": "dop853"})
+    rotlab.simulate(scenario, torque=slow, duration=0.02)  # compiles slow and the kernels
     print("ready", flush=True)
     start = time.monotonic()
     try:
@@ -194,7 +195,7 @@ def test_ctrl_c_stops_a_slow_python_torque_within_one_call(tmp_path):
     proc = subprocess.Popen([sys.executable, "-c", SLOW_TORQUE, FREE.replace("end = 2.0", "end = 1000.0")],
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout.readline().strip() == "ready"
-    time.sleep(3.0)  # inside the kernel, in the slow function
+    time.sleep(1.5)  # inside the kernel, in the slow function (compiled before "ready": the same function is not compiled again)
     sent = time.monotonic()
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import mpmath
@@ -436,6 +437,47 @@ def test_python_torque_function_equals_the_same_expression():
             assert np.max(np.abs(np.column_stack([traj.quaternion, traj.omega]) - reference)) < 1e-12, (method, frame)
     other = rotlab.simulate(_scenario([], "dop853"), torque=lambda t, q, omega: (0.0, 0.0, 0.0))
     assert np.max(np.abs(other.omega - _states([], "dop853")[:, 4:7])) == 0.0
+
+
+_GAIN = 0.4  # read by _gained_torque: numba freezes its value when it compiles the function
+
+
+def _gained_torque(t, q, omega):
+    return -_GAIN * omega[0], -_GAIN * omega[1], -_GAIN * omega[2]
+
+
+def test_a_python_torque_is_compiled_once_and_again_when_what_it_reads_changes(monkeypatch):
+    """The same function gives the same compiled callback at the next call; a changed global it
+    reads (numba froze its value), a changed array's contents or a rebound function compile it
+    anew, so the motion follows the new value: equal to the expression with that value to 1e-12
+    (rk4 at h = 1e-3).  A function reading a user's module is compiled at each call."""
+    from rotlab.scene.user_torque import user_torque
+
+    axes = np.eye(3)
+    first = user_torque(_gained_torque, "body", axes).fn
+    assert user_torque(_gained_torque, "body", axes).fn is first
+    for gain in (0.8, 0.4):
+        monkeypatch.setattr(sys.modules[__name__], "_GAIN", gain)
+        traj = rotlab.simulate(_scenario([], "rk4"), torque=_gained_torque)
+        reference = _states([{"type": "expression", "frame": "body", "torque": [f"-{gain}*omega[{k}]" for k in range(3)]}], "rk4")
+        assert np.max(np.abs(np.column_stack([traj.quaternion, traj.omega]) - reference)) < 1e-12, gain
+    assert user_torque(_gained_torque, "body", axes).fn is user_torque(_gained_torque, "body", axes).fn
+    table = np.array([0.1, 0.2, 0.3])
+
+    def tabled(t, q, omega):
+        return table[0], table[1], table[2]
+
+    before = user_torque(tabled, "body", axes).fn
+    table[1] = 0.5
+    assert user_torque(tabled, "body", axes).fn is not before
+
+    gains = types.ModuleType("gains")  # a user's module of parameters: numba reads gains.k, frozen
+    gains.k = 0.1
+
+    def from_module(t, q, omega):
+        return gains.k, 0.0, 0.0
+
+    assert user_torque(from_module, "body", axes).fn is not user_torque(from_module, "body", axes).fn
 
 
 def test_python_torque_function_refusals():

@@ -143,9 +143,9 @@ def _user_impl(t, y, user):
     def impl(t, y, user):
         q0, q1, q2, q3 = _to_user_quaternion(user.axes_q, y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3])
         w0, w1, w2 = _to_user(user.axes, y[P0], y[P0 + 1], y[P0 + 2])
-        mx = user.fn(t, q0, q1, q2, q3, w0, w1, w2, 0)
-        my = user.fn(t, q0, q1, q2, q3, w0, w1, w2, 1)
-        mz = user.fn(t, q0, q1, q2, q3, w0, w1, w2, 2)
+        m = np.empty(3)
+        user.fn(t, q0, q1, q2, q3, w0, w1, w2, m.ctypes)
+        mx, my, mz = m[0], m[1], m[2]
         if user.frame != 0.0:
             return rotate_to_body(y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3], mx, my, mz)
         return _to_principal(user.axes, mx, my, mz)

@@ -3,6 +3,9 @@ typed before any step, and called by the kernels through one fixed C signature."
 
 from __future__ import annotations
 
+import threading
+import types as pytypes
+from collections import OrderedDict
 from typing import Any, Callable, NamedTuple
 
 import numpy as np
@@ -15,10 +18,10 @@ def _user_signature():
     from numba import types
 
     f = types.float64
-    return f(f, f, f, f, f, f, f, f, types.int64)
+    return types.void(f, f, f, f, f, f, f, f, types.CPointer(f))
 
 
-USER_SIGNATURE = _user_signature()  # (t, λ0..λ3, ω0..ω2, component) → M_component
+USER_SIGNATURE = _user_signature()  # (t, λ0..λ3, ω0..ω2, M out (3,)) → M written
 
 
 class UserTorque(NamedTuple):
@@ -37,12 +40,13 @@ def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
     cannot compile it or M is not three real numbers (a tuple, a list or a 1-D array).
 
     The kernels receive it as a C callback (``numba.cfunc``) of one fixed signature
-    (t, Λ, ω, component) → M_component: its type is the same for every function, so the kernels
+    (t, Λ, ω, M out) → None, one call per evaluation: its type is the same for every function, so the kernels
     stay compiled and cached on disk (a jitted function as a kernel argument would recompile
     them for each function and write its type into their cache index).  The callback never
     raises (a cfunc can only print and swallow an exception): when ``fn`` raises, returns other
     than 3 values, or a value that is not finite, it records a fault (``rotlab.core.faults``)
-    and returns NaN, so the run stops and says why; it also honours Ctrl-C between calls."""
+    and writes NaN, so the run stops and says why; it also honours Ctrl-C between calls.  The
+    callback is kept for the next call with the same function (``_typed_callback``)."""
     import numba
 
     from rotlab.errors import InputError
@@ -51,6 +55,29 @@ def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
         raise InputError("frame", f"must be \"body\" or \"space\", not {frame!r}")
     if not callable(fn):
         raise InputError("torque", f"must be a function fn(t, q, omega) -> (Mx, My, Mz), not {type(fn).__name__}")
+    return UserTorque(_typed_callback(fn), frame_code(frame), np.ascontiguousarray(axes, dtype=float), from_matrix(axes))
+
+
+_CALLBACKS: OrderedDict[Callable, tuple[tuple, Any]] = OrderedDict()  # fn → (its frozen inputs, callback)
+_CALLBACKS_KEPT = 32  # the most recently used functions
+_CALLBACKS_LOCK = threading.Lock()
+_CONSTANT_MODULES = ("numpy", "math", "cmath", "numba")  # modules whose attributes a torque may read
+
+
+def _typed_callback(fn: Callable) -> Any:
+    """``fn`` typed and wrapped as a callback (``_callback``), compiled once per function and
+    per value of what numba freezes into it (``_frozen_inputs``): calling ``rotlab.simulate``
+    again with the same torque reuses the callback, and a changed global is compiled anew."""
+    import numba
+
+    from rotlab.errors import InputError
+
+    frozen = _frozen_inputs(fn)
+    with _CALLBACKS_LOCK:
+        kept = _CALLBACKS.get(fn) if frozen is not None else None
+        if kept is not None and kept[0] == frozen:
+            _CALLBACKS.move_to_end(fn)
+            return kept[1]
     name = getattr(fn, "__name__", "torque")
     jitted = fn if isinstance(fn, numba.core.registry.CPUDispatcher) else numba.njit(boundscheck=True)(fn)
     args = (numba.types.float64, numba.types.float64[::1], numba.types.float64[::1])
@@ -64,7 +91,65 @@ def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
     problem = _return_problem(returned)
     if problem:
         raise InputError("torque", f"{name}(t, q, omega) must return 3 real numbers (Mx, My, Mz) as a tuple, list or array; it returns {problem}")
-    return UserTorque(_callback(jitted), frame_code(frame), np.ascontiguousarray(axes, dtype=float), from_matrix(axes))
+    callback = _callback(jitted)
+    if frozen is not None:
+        with _CALLBACKS_LOCK:
+            _CALLBACKS[fn] = (frozen, callback)
+            _CALLBACKS.move_to_end(fn)
+            while len(_CALLBACKS) > _CALLBACKS_KEPT:
+                _CALLBACKS.popitem(last=False)
+    return callback
+
+
+def _frozen_inputs(fn: Callable) -> tuple | None:
+    """What numba freezes into a compiled ``fn`` besides its code, as a comparable tuple: the
+    values of the globals its code names (nested code included), of its closure's cells and of
+    its defaults.  None when one of them has state that cannot be compared (a user's module or
+    object, a plain function), and for a callable that is not a function: such a torque is
+    compiled at every call.  A function the user jitted is its own key: numba froze its globals
+    at its first compile."""
+    import numba
+
+    if isinstance(fn, numba.core.registry.CPUDispatcher):
+        return ()
+    if not isinstance(fn, pytypes.FunctionType):
+        return None
+    names: set[str] = set()
+    codes = [fn.__code__]
+    while codes:
+        code = codes.pop()
+        names.update(code.co_names)
+        codes.extend(c for c in code.co_consts if isinstance(c, pytypes.CodeType))
+    try:
+        cells = tuple(cell.cell_contents for cell in fn.__closure__ or ())
+    except ValueError:  # an empty cell
+        return None
+    values = [(name, fn.__globals__[name]) for name in sorted(names) if name in fn.__globals__]
+    parts = [_frozen_value(v) for v in (*(v for _, v in values), *cells, fn.__defaults__, fn.__kwdefaults__)]
+    if any(part is None for part in parts):
+        return None
+    return (tuple(name for name, _ in values), *parts)
+
+
+def _frozen_value(value: Any) -> tuple | None:
+    """A comparable snapshot of a value numba freezes as a constant (None when it cannot be
+    compared: see ``_frozen_inputs``).  Its type is part of it: 1 and 1.0 compile differently."""
+    import numba
+
+    if value is None or isinstance(value, (bool, int, float, complex, str, bytes, np.generic)):
+        return ("value", type(value), value)
+    if isinstance(value, np.ndarray):
+        return ("array", value.dtype.str, value.shape, value.tobytes())
+    if isinstance(value, (tuple, list)):
+        parts = [_frozen_value(v) for v in value]
+        return None if any(p is None for p in parts) else (type(value), *parts)
+    if isinstance(value, dict):
+        return None
+    if isinstance(value, pytypes.ModuleType):
+        return ("module", value) if value.__name__.split(".")[0] in _CONSTANT_MODULES else None
+    if isinstance(value, numba.core.registry.CPUDispatcher):
+        return ("jitted", value)
+    return None
 
 
 def _return_problem(returned) -> str | None:
@@ -87,29 +172,32 @@ def _return_problem(returned) -> str | None:
 
 
 def _callback(jitted: Any) -> Any:
-    """The C callback of a typed Python torque (``user_torque``): M_k at (t, Λ, ω), or NaN and a
-    fault; the values are those ``rotlab.core.faults.record`` keeps (user's body frame)."""
+    """The C callback of a typed Python torque (``user_torque``): M at (t, Λ, ω) written to
+    ``out``, or NaN and a fault; the values are those ``rotlab.core.faults.record`` keeps (user's body frame)."""
     import numba
 
     from rotlab.core import faults
 
     @numba.cfunc(USER_SIGNATURE)
-    def callback(t, q0, q1, q2, q3, w0, w1, w2, k):  # pragma: no cover - runs compiled
+    def callback(t, q0, q1, q2, q3, w0, w1, w2, out):  # pragma: no cover - runs compiled
+        m = numba.carray(out, 3)
+        m[:] = np.nan
         if faults.interrupt_requested():
-            return np.nan
+            return
         try:
             value = jitted(t, np.array([q0, q1, q2, q3]), np.array([w0, w1, w2]))
         except Exception:  # noqa: BLE001 - numba catches what the function raised, without its type
-            faults.record(faults.CALLABLE_RAISED, 0, k, t, w0, w1, w2, q0, q1, q2, q3, 0.0)
-            return np.nan
+            faults.record(faults.CALLABLE_RAISED, 0, 0, t, w0, w1, w2, q0, q1, q2, q3, 0.0)
+            return
         if len(value) != 3:
-            faults.record(faults.CALLABLE_SHAPE, 0, k, t, w0, w1, w2, q0, q1, q2, q3, float(len(value)))
-            return np.nan
+            faults.record(faults.CALLABLE_SHAPE, 0, 0, t, w0, w1, w2, q0, q1, q2, q3, float(len(value)))
+            return
         mx, my, mz = value
-        m = float(mx) if k == 0 else (float(my) if k == 1 else float(mz))
-        if not np.isfinite(m):
-            faults.record(faults.CALLABLE_NOT_FINITE, 0, k, t, w0, w1, w2, q0, q1, q2, q3, 0.0)
-        return m
+        m[0], m[1], m[2] = float(mx), float(my), float(mz)
+        for k in range(3):
+            if not np.isfinite(m[k]):
+                faults.record(faults.CALLABLE_NOT_FINITE, 0, k, t, w0, w1, w2, q0, q1, q2, q3, 0.0)
+                return
 
     return callback
 
