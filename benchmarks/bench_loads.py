@@ -1,6 +1,8 @@
 """Cost of state-dependent loads: a built-in load vs the same load written as an expression
-(generated code compiled once per formula set, ``rotlab.scene.formulas``; Taylor mode interpreted), and the built-in kinds that compile to
-expressions, per step of rk4, dop853 and taylor; and what a NEW formula costs on a warm cache.
+(generated code compiled once per formula set, ``rotlab.scene.formulas``; Taylor mode interpreted)
+or as a Python ``torque=`` function (``rotlab.scene.user_torque``; taylor refuses it), and the
+built-in kinds that compile to expressions, per step of rk4, dop853 and taylor; and what a NEW
+formula, or a Python function, costs on a warm cache.
 
     python benchmarks/bench_loads.py [--repeats 5]
 
@@ -35,9 +37,14 @@ LOADS = {
 SETTINGS = {"rk4": Settings(step=1e-3, max_steps=10**12), "dop853": Settings(rtol=1e-10, atol=1e-12), "taylor": Settings(rtol=1e-10, atol=1e-12)}
 
 
-def scene_of(loads):
+def scene_of(loads, torque=None):
     return build_scene(parse_scenario({"body": BODY, "initial": {"omega": [0.5, -1.0, 0.8]}, "loads": loads,
-                                       "time": {"end": 20.0, "samples": 201}}))
+                                       "time": {"end": 20.0, "samples": 201}}), torque=torque)
+
+
+def damping_function(t, q, omega):
+    """The damping row's load as a user's Python function."""
+    return -0.1 * omega[0], -0.1 * omega[1], -0.1 * omega[2]
 
 
 def ns_per_step(scene, name: str, repeats: int) -> tuple[float, int]:
@@ -68,6 +75,17 @@ def main() -> None:
             base.setdefault(name, ns)
             cells.append(f"{ns:10.0f} ({ns / base[name]:3.1f}x) {steps:8,}")
         print(f"{label:26} " + " ".join(cells))
+    started = time.perf_counter()
+    scene = scene_of([], torque=damping_function)
+    built = time.perf_counter() - started
+    cells = []
+    for name in ("rk4", "dop853"):
+        ns, steps = ns_per_step(scene, name, args.repeats)
+        cells.append(f"{ns:10.0f} ({ns / base[name]:3.1f}x) {steps:8,}")
+    print(f"{'damping as Python torque=':26} " + " ".join(cells) + f" {'(refused)':>16}")
+    started = time.perf_counter()
+    scene_of([], torque=damping_function)
+    print(f"Python torque: compiled in {built:.2f} s; the same function again: {time.perf_counter() - started:.4f} s")
     # a formula never seen before (an empty formula cache): its cfunc is compiled (then cached on
     # disk); the kernels are not.  The same formula with other constants reuses the function.
     os.environ["ROTLAB_CACHE"] = tempfile.mkdtemp(prefix="rotlab-bench-")
