@@ -10,6 +10,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+USER_BUFFER = 10  # a Python torque's call buffer: Λ (4) and ω (3) in, M (3) out (``rotlab.scene.user_torque``)
+
+
 class Expressions(NamedTuple):
     """Expression loads: one row each (columns ``rotlab.core.torques.EX_*``), their programs
     (``code`` rows (opcode, argument), CONST arguments index ``consts``) and the user's frame."""

@@ -22,6 +22,7 @@ from numba import njit, types
 
 from rotlab.core.expressions import call_formulas, call_load_formulas, constants_address, series_step, switch_limit
 from rotlab.core.faults import FORMULA_NOT_FINITE, record
+from rotlab.core.model import USER_BUFFER
 from rotlab.core.quaternion import N_PRODUCTS, qmul, rotate_quadratic, rotate_to_body
 from rotlab.core.state import P0, Q0, STATE_SIZE
 from rotlab.core.targets import overload
@@ -143,9 +144,10 @@ def _user_impl(t, y, user):
     def impl(t, y, user):
         q0, q1, q2, q3 = _to_user_quaternion(user.axes_q, y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3])
         w0, w1, w2 = _to_user(user.axes, y[P0], y[P0 + 1], y[P0 + 2])
-        m = np.empty(3)
-        user.fn(t, q0, q1, q2, q3, w0, w1, w2, m.ctypes)
-        mx, my, mz = m[0], m[1], m[2]
+        b = np.empty(USER_BUFFER)
+        b[0], b[1], b[2], b[3], b[4], b[5], b[6] = q0, q1, q2, q3, w0, w1, w2
+        user.fn(t, b.ctypes)
+        mx, my, mz = b[7], b[8], b[9]
         if user.frame != 0.0:
             return rotate_to_body(y[Q0], y[Q0 + 1], y[Q0 + 2], y[Q0 + 3], mx, my, mz)
         return _to_principal(user.axes, mx, my, mz)

@@ -10,6 +10,7 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
+from rotlab.core.model import USER_BUFFER
 from rotlab.core.quaternion import from_matrix
 from rotlab.scene.load_kinds import frame_code
 
@@ -18,10 +19,10 @@ def _user_signature():
     from numba import types
 
     f = types.float64
-    return types.void(f, f, f, f, f, f, f, f, types.CPointer(f))
+    return types.void(f, types.CPointer(f))
 
 
-USER_SIGNATURE = _user_signature()  # (t, λ0..λ3, ω0..ω2, M out (3,)) → M written
+USER_SIGNATURE = _user_signature()  # (t, [λ0..λ3, ω0..ω2, M (3,)]) → M written
 
 
 class UserTorque(NamedTuple):
@@ -40,15 +41,13 @@ def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
     cannot compile it or M is not three real numbers (a tuple, a list or a 1-D array).
 
     The kernels receive it as a C callback (``numba.cfunc``) of one fixed signature
-    (t, Λ, ω, M out) → None, one call per evaluation: its type is the same for every function, so the kernels
+    (t, buffer) → None, one call per evaluation (the buffer: Λ and ω in, M out, ``USER_BUFFER``): its type is the same for every function, so the kernels
     stay compiled and cached on disk (a jitted function as a kernel argument would recompile
     them for each function and write its type into their cache index).  The callback never
     raises (a cfunc can only print and swallow an exception): when ``fn`` raises, returns other
     than 3 values, or a value that is not finite, it records a fault (``rotlab.core.faults``)
     and writes NaN, so the run stops and says why; it also honours Ctrl-C between calls.  The
     callback is kept for the next call with the same function (``_typed_callback``)."""
-    import numba
-
     from rotlab.errors import InputError
 
     if frame not in ("body", "space"):
@@ -173,19 +172,21 @@ def _return_problem(returned) -> str | None:
 
 def _callback(jitted: Any) -> Any:
     """The C callback of a typed Python torque (``user_torque``): M at (t, Λ, ω) written to
-    ``out``, or NaN and a fault; the values are those ``rotlab.core.faults.record`` keeps (user's body frame)."""
+    its buffer (``USER_BUFFER``; q and omega are views of it, no copies), or NaN and a fault; the values are those ``rotlab.core.faults.record`` keeps (user's body frame)."""
     import numba
 
     from rotlab.core import faults
 
     @numba.cfunc(USER_SIGNATURE)
-    def callback(t, q0, q1, q2, q3, w0, w1, w2, out):  # pragma: no cover - runs compiled
-        m = numba.carray(out, 3)
+    def callback(t, buffer):  # pragma: no cover - runs compiled
+        b = numba.carray(buffer, USER_BUFFER)
+        q, omega, m = b[0:4], b[4:7], b[7:10]
+        q0, q1, q2, q3, w0, w1, w2 = b[0], b[1], b[2], b[3], b[4], b[5], b[6]  # as called (fn may write into q, omega)
         m[:] = np.nan
         if faults.interrupt_requested():
             return
         try:
-            value = jitted(t, np.array([q0, q1, q2, q3]), np.array([w0, w1, w2]))
+            value = jitted(t, q, omega)
         except Exception:  # noqa: BLE001 - numba catches what the function raised, without its type
             faults.record(faults.CALLABLE_RAISED, 0, 0, t, w0, w1, w2, q0, q1, q2, q3, 0.0)
             return
