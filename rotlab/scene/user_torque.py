@@ -40,9 +40,9 @@ def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
     checks) and typed for (float, float64[4], float64[3]); ``InputError`` naming why when numba
     cannot compile it or M is not three real numbers (a tuple, a list or a 1-D array).
 
-    The kernels receive it as a C callback (``numba.cfunc``) of one fixed signature
-    (t, buffer) → None, one call per evaluation (the buffer: Λ and ω in, M out, ``USER_BUFFER``): its type is the same for every function, so the kernels
-    stay compiled and cached on disk (a jitted function as a kernel argument would recompile
+    The kernels receive it as a C callback (``numba.cfunc``) of one fixed signature (t, buffer)
+    → None, called once per evaluation (the buffer: Λ and ω in, M out, ``USER_BUFFER``): its
+    type is the same for every function, so the kernels stay compiled and cached on disk (a jitted function as a kernel argument would recompile
     them for each function and write its type into their cache index).  The callback never
     raises (a cfunc can only print and swallow an exception): when ``fn`` raises, returns other
     than 3 values, or a value that is not finite, it records a fault (``rotlab.core.faults``)
