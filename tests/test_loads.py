@@ -450,7 +450,8 @@ def test_a_python_torque_is_compiled_once_and_again_when_what_it_reads_changes(m
     """The same function gives the same compiled callback at the next call; a changed global it
     reads (numba froze its value), a changed array's contents or a rebound function compile it
     anew, so the motion follows the new value: equal to the expression with that value to 1e-12
-    (rk4 at h = 1e-3).  A function reading a user's module is compiled at each call."""
+    (rk4 at h = 1e-3); so do -0.0 for 0.0 and a new code object.  A function reading a user's
+    module is compiled at each call."""
     from rotlab.scene.user_torque import user_torque
 
     axes = np.eye(3)
@@ -470,6 +471,17 @@ def test_a_python_torque_is_compiled_once_and_again_when_what_it_reads_changes(m
     before = user_torque(tabled, "body", axes).fn
     table[1] = 0.5
     assert user_torque(tabled, "body", axes).fn is not before
+    sign = 0.0
+
+    def signed(t, q, omega):
+        return math.copysign(1.0, sign), 0.0, 0.0
+
+    before = user_torque(signed, "body", axes).fn
+    sign = -0.0  # == 0.0, but not the same constant
+    assert user_torque(signed, "body", axes).fn is not before
+    before = user_torque(tabled, "body", axes).fn
+    tabled.__code__ = tabled.__code__.replace()
+    assert user_torque(tabled, "body", axes).fn is not before  # a new code object (IPython's autoreload swaps them)
 
     gains = types.ModuleType("gains")  # a user's module of parameters: numba reads gains.k, frozen
     gains.k = 0.1

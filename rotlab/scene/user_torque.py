@@ -78,9 +78,9 @@ def _typed_callback(fn: Callable) -> Any:
             _CALLBACKS.move_to_end(fn)
             return kept[1]
     name = getattr(fn, "__name__", "torque")
-    jitted = fn if isinstance(fn, numba.core.registry.CPUDispatcher) else numba.njit(boundscheck=True)(fn)
     args = (numba.types.float64, numba.types.float64[::1], numba.types.float64[::1])
     try:
+        jitted = fn if isinstance(fn, numba.core.registry.CPUDispatcher) else numba.njit(boundscheck=True)(fn)
         jitted.compile(args)
         returned = jitted.overloads[args].signature.return_type
     except numba.core.errors.NumbaError as exc:
@@ -91,7 +91,7 @@ def _typed_callback(fn: Callable) -> Any:
     if problem:
         raise InputError("torque", f"{name}(t, q, omega) must return 3 real numbers (Mx, My, Mz) as a tuple, list or array; it returns {problem}")
     callback = _callback(jitted)
-    if frozen is not None:
+    if frozen is not None and _frozen_inputs(fn) == frozen:  # (not when another thread changed a global meanwhile)
         with _CALLBACKS_LOCK:
             _CALLBACKS[fn] = (frozen, callback)
             _CALLBACKS.move_to_end(fn)
@@ -100,13 +100,27 @@ def _typed_callback(fn: Callable) -> Any:
     return callback
 
 
+class _Same:
+    """A snapshot's part compared by identity (a code object, a module, a jitted or numpy function)."""
+
+    __slots__ = ("obj",)
+
+    def __init__(self, obj: Any) -> None:
+        self.obj = obj
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Same) and other.obj is self.obj
+
+    __hash__ = None  # type: ignore[assignment]
+
+
 def _frozen_inputs(fn: Callable) -> tuple | None:
-    """What numba freezes into a compiled ``fn`` besides its code, as a comparable tuple: the
-    values of the globals its code names (nested code included), of its closure's cells and of
-    its defaults.  None when one of them has state that cannot be compared (a user's module or
-    object, a plain function), and for a callable that is not a function: such a torque is
-    compiled at every call.  A function the user jitted is its own key: numba froze its globals
-    at its first compile."""
+    """What numba freezes into a compiled ``fn``, as a comparable tuple: its code object, the
+    values of the globals its code names (nested code included; for numpy, math, cmath and numba,
+    the attributes it may read of them), of its closure's cells and of its defaults.  None when one
+    of them has state that cannot be compared (a user's module or object, a plain function), and
+    for a callable that is not a function: such a torque is compiled at every call.  A function
+    the user jitted is its own key: numba froze its globals at its first compile."""
     import numba
 
     if isinstance(fn, numba.core.registry.CPUDispatcher):
@@ -123,31 +137,41 @@ def _frozen_inputs(fn: Callable) -> tuple | None:
         cells = tuple(cell.cell_contents for cell in fn.__closure__ or ())
     except ValueError:  # an empty cell
         return None
-    values = [(name, fn.__globals__[name]) for name in sorted(names) if name in fn.__globals__]
-    parts = [_frozen_value(v) for v in (*(v for _, v in values), *cells, fn.__defaults__, fn.__kwdefaults__)]
+    named = sorted(names)
+    values = [fn.__globals__[name] for name in named if name in fn.__globals__]
+    attributes = [getattr(module, name) for module in values if isinstance(module, pytypes.ModuleType) and _constant(module)
+                  for name in named if hasattr(module, name)]  # np.K = … after a compile is frozen too
+    parts = [_frozen_value(v) for v in (*values, *cells, fn.__defaults__, fn.__kwdefaults__)]
     if any(part is None for part in parts):
         return None
-    return (tuple(name for name, _ in values), *parts)
+    return (_Same(fn.__code__), tuple(name for name in named if name in fn.__globals__), *parts,
+            *(_frozen_value(a) or _Same(a) for a in attributes))
+
+
+def _constant(obj: Any) -> bool:
+    """Is ``obj`` a module of ``_CONSTANT_MODULES`` or one of their functions and types?"""
+    where = obj.__name__ if isinstance(obj, pytypes.ModuleType) else getattr(obj, "__module__", None)
+    return isinstance(where, str) and where.split(".")[0] in _CONSTANT_MODULES
 
 
 def _frozen_value(value: Any) -> tuple | None:
     """A comparable snapshot of a value numba freezes as a constant (None when it cannot be
-    compared: see ``_frozen_inputs``).  Its type is part of it: 1 and 1.0 compile differently."""
+    compared: see ``_frozen_inputs``).  Its type is part of it (1 and 1.0 compile differently),
+    and a number is compared by its bits (-0.0 is not 0.0 to ``1/x`` or ``copysign``)."""
     import numba
 
-    if value is None or isinstance(value, (bool, int, float, complex, str, bytes, np.generic)):
+    if value is None or isinstance(value, (bool, int, str, bytes)):
         return ("value", type(value), value)
+    if isinstance(value, (float, complex, np.generic)):
+        bits = np.asarray(value)
+        return ("bits", type(value), bits.dtype, bits.tobytes())
     if isinstance(value, np.ndarray):
-        return ("array", value.dtype.str, value.shape, value.tobytes())
+        return ("array", value.dtype, value.shape, value.flags.c_contiguous, value.flags.f_contiguous, value.tobytes())
     if isinstance(value, (tuple, list)):
         parts = [_frozen_value(v) for v in value]
         return None if any(p is None for p in parts) else (type(value), *parts)
-    if isinstance(value, dict):
-        return None
-    if isinstance(value, pytypes.ModuleType):
-        return ("module", value) if value.__name__.split(".")[0] in _CONSTANT_MODULES else None
-    if isinstance(value, numba.core.registry.CPUDispatcher):
-        return ("jitted", value)
+    if isinstance(value, numba.core.registry.CPUDispatcher) or _constant(value) and not isinstance(value, dict):
+        return ("same", _Same(value))
     return None
 
 
