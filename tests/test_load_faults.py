@@ -183,8 +183,10 @@ SLOW_TORQUE = textwrap.dedent("""
     rotlab.simulate(scenario, torque=slow, duration=0.02)  # compiles slow and the kernels
     print("ready", flush=True)
     start = time.monotonic()
+    from rotlab.compile_apart import compiling_refused
     try:
-        rotlab.simulate(scenario, torque=slow)
+        with compiling_refused():  # a Ctrl-C must land in the slow function, not in a compile (numba may swallow it there)
+            rotlab.simulate(scenario, torque=slow)
         print("finished")
     except Interrupted as exc:
         print(f"interrupted {time.monotonic() - start:.2f} {exc}")
@@ -192,7 +194,8 @@ SLOW_TORQUE = textwrap.dedent("""
 
 
 def test_ctrl_c_stops_a_slow_python_torque_within_one_call(tmp_path):
-    proc = subprocess.Popen([sys.executable, "-c", SLOW_TORQUE, FREE.replace("end = 2.0", "end = 1000.0")],
+    # 90,001 samples: as the short run, in memory (from compile_apart.LONG_RUN on, a run streams, with kernels of its own)
+    proc = subprocess.Popen([sys.executable, "-c", SLOW_TORQUE, FREE.replace("end = 2.0", "end = 900.0")],
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout.readline().strip() == "ready"
     time.sleep(1.5)  # inside the kernel, in the slow function (compiled before "ready": the same function is not compiled again)
