@@ -22,12 +22,6 @@ if os.environ.get("CI"):
 ROOT = Path(__file__).resolve().parents[1]
 
 
-# The CPU ensemble kernels the GPU tests compare with are those tests/test_ensemble.py compiles:
-# with ``--dist loadgroup`` (the README's test command) they run on one xdist worker, the ensemble
-# tests first (collection order), so the GPU tests load those kernels from numba's cache instead of
-# compiling them again, alongside (a cold suite: ~150 s of compilation each, measured).
-ENSEMBLE_KERNELS = pytest.mark.xdist_group("ensemble_kernels")
-
 def pytest_report_header(config) -> str:
     import rotlab
 

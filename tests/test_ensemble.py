@@ -27,9 +27,7 @@ from rotlab.scene.scene import build_scene
 from rotlab.sweep.cases import Case, expand
 from rotlab.sweep.results import Results, parameter_names
 from rotlab.sweep.runner import COMPARED_CASES, compared_cases, outcomes_of, plan, run_cases
-from tests.conftest import CONFIGS, ENSEMBLE_KERNELS
-
-pytestmark = ENSEMBLE_KERNELS
+from tests.conftest import CONFIGS
 
 CASES = 5
 METHOD_SCENES = [  # (config, time.end, method, solver changes)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import CONFIGS, ENSEMBLE_KERNELS
+from tests.conftest import CONFIGS
 
 ROOT = Path(__file__).resolve().parents[1]
 SIMULATOR = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
@@ -34,7 +34,6 @@ def _rotlab(args: list[str], env: dict, cwd: Path) -> subprocess.CompletedProces
     return subprocess.run([sys.executable, "-m", "rotlab", *args], env=env, cwd=cwd, capture_output=True, text=True, timeout=600)
 
 
-@ENSEMBLE_KERNELS
 def test_every_gpu_method_gives_the_cpu_ensembles_numbers_bit_for_bit():
     """rk4, rkmk4, dmv and dop853 on four scenes (free body near the intermediate axis, heavy top,
     general loads, gyrostat): status, samples, steps, evaluations, flip period, nutation, every
@@ -70,7 +69,6 @@ def test_every_gpu_method_gives_the_cpu_ensembles_numbers_bit_for_bit():
     assert result.stdout.count("identical") == 9
 
 
-@ENSEMBLE_KERNELS
 def test_a_case_that_blows_up_on_the_gpu_stops_where_it_does_on_the_cpu():
     """A heavy top whose spin overflows (ω₀ = 1e200 rad/s: ω² is not finite) stops at its first sample
     with the CPU's failure message, its last valid state kept; its neighbours are unaffected."""
@@ -98,7 +96,6 @@ def test_a_case_that_blows_up_on_the_gpu_stops_where_it_does_on_the_cpu():
     assert "rk4" in result.stdout and "dop853" in result.stdout
 
 
-@ENSEMBLE_KERNELS
 def test_events_on_the_gpu_are_the_cpu_ensembles_bit_for_bit():
     """A scene's events on the (simulated) GPU, rk4 and dop853: located (two events, one with
     ``record`` formulas), a ``when`` that turns non-finite mid-run, a ``record`` formula that is
@@ -154,7 +151,6 @@ def _small_sweep(tmp_path: Path, extra: str = "") -> Path:
     return path
 
 
-@ENSEMBLE_KERNELS
 def test_a_sweep_on_the_simulated_gpu_writes_the_cpu_sweeps_results(tmp_path):
     """``rotlab sweep --device cuda``, with an event: results.csv (the event's columns among
     them) byte for byte the CPU sweep's; the terminal says where the cases ran."""
@@ -309,7 +305,6 @@ def test_the_kernels_are_compiled_for_the_cpus_rounding(monkeypatch):
     assert gpu._jit(kernel).targetoptions["max_registers"] == 128
 
 
-@ENSEMBLE_KERNELS
 def test_a_gpu_result_that_is_not_the_cpus_stops_the_sweep_in_one_line(tmp_path):
     """Each GPU call's cases 0, b/3, 2b/3 and b − 1 are run again on the CPU (``cross_check``):
     a device result that is not the CPU's (here one case's last state corrupted by hand after the
