@@ -42,8 +42,9 @@ def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
 
     The kernels receive it as a C callback (``numba.cfunc``) of one fixed signature (t, buffer)
     → None, called once per evaluation (the buffer: Λ and ω in, M out, ``USER_BUFFER``): its
-    type is the same for every function, so the kernels stay compiled and cached on disk (a jitted function as a kernel argument would recompile
-    them for each function and write its type into their cache index).  The callback never
+    type is the same for every function, so the kernels stay compiled and cached on disk (a
+    jitted function as a kernel argument would recompile them for each function and write its
+    type into their cache index).  The callback never
     raises (a cfunc can only print and swallow an exception): when ``fn`` raises, returns other
     than 3 values, or a value that is not finite, it records a fault (``rotlab.core.faults``)
     and writes NaN, so the run stops and says why; it also honours Ctrl-C between calls.  The
@@ -138,18 +139,18 @@ def _frozen_inputs(fn: Callable) -> tuple | None:
     except ValueError:  # an empty cell
         return None
     named = sorted(names)
-    values = [fn.__globals__[name] for name in named if name in fn.__globals__]
+    bound = tuple(name for name in named if name in fn.__globals__)
+    values = [fn.__globals__[name] for name in bound]
     attributes = [getattr(module, name) for module in values if isinstance(module, pytypes.ModuleType) and _constant(module)
                   for name in named if hasattr(module, name)]  # np.K = … after a compile is frozen too
     parts = [_frozen_value(v) for v in (*values, *cells, fn.__defaults__, fn.__kwdefaults__)]
     if any(part is None for part in parts):
         return None
-    return (_Same(fn.__code__), tuple(name for name in named if name in fn.__globals__), *parts,
-            *(_frozen_value(a) or _Same(a) for a in attributes))
+    return (_Same(fn.__code__), bound, *parts, *(_frozen_value(a) or _Same(a) for a in attributes))
 
 
 def _constant(obj: Any) -> bool:
-    """Is ``obj`` a module of ``_CONSTANT_MODULES`` or one of their functions and types?"""
+    """Is ``obj`` a module of ``_CONSTANT_MODULES``, or defined in one?"""
     where = obj.__name__ if isinstance(obj, pytypes.ModuleType) else getattr(obj, "__module__", None)
     return isinstance(where, str) and where.split(".")[0] in _CONSTANT_MODULES
 
@@ -170,8 +171,8 @@ def _frozen_value(value: Any) -> tuple | None:
     if isinstance(value, (tuple, list)):
         parts = [_frozen_value(v) for v in value]
         return None if any(p is None for p in parts) else (type(value), *parts)
-    if isinstance(value, numba.core.registry.CPUDispatcher) or _constant(value) and not isinstance(value, dict):
-        return ("same", _Same(value))
+    if isinstance(value, numba.core.registry.CPUDispatcher) or (isinstance(value, pytypes.ModuleType) or callable(value)) and _constant(value):
+        return ("same", _Same(value))  # (an instance of their classes, such as a typed List, holds state: not cached)
     return None
 
 
@@ -195,8 +196,9 @@ def _return_problem(returned) -> str | None:
 
 
 def _callback(jitted: Any) -> Any:
-    """The C callback of a typed Python torque (``user_torque``): M at (t, Λ, ω) written to
-    its buffer (``USER_BUFFER``; q and omega are views of it, no copies), or NaN and a fault; the values are those ``rotlab.core.faults.record`` keeps (user's body frame)."""
+    """The C callback of a typed Python torque (``user_torque``): M at (t, Λ, ω) written to its
+    buffer (``USER_BUFFER``; q and omega are views of it, no copies), or NaN and a fault; the
+    values are those ``rotlab.core.faults.record`` keeps (user's body frame)."""
     import numba
 
     from rotlab.core import faults
