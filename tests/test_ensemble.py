@@ -287,6 +287,28 @@ def test_events_in_the_ensemble_are_those_of_each_case_run_alone(method, changes
         assert block.failure[k] is None and np.array_equal(states, traj._state)
 
 
+def test_no_kernel_is_compiled_again_for_a_constant_argument():
+    """numba compiles a function that compiled code calls with a constant integer
+    (``Literal[int](1)``) apart from its int64 specialisation: ``dop853_advance`` and
+    ``taylor_advance`` (from their local solutions, which locate events) and the ensemble's
+    ``scan_call`` were each compiled twice for every model type, 10-25 s each on 2 cores.  After
+    located events under both methods, alone and in the ensemble, none of them (nor the ensemble's
+    ``_start_whole``) has a signature with a constant integer."""
+    from numba import types
+
+    from rotlab.core.dop853 import dop853_advance
+    from rotlab.core.taylor import taylor_advance
+    from rotlab.ensemble.event_scan import scan_call
+    from rotlab.ensemble.kernels import _start_whole
+
+    for method, changes in EVENT_METHODS[-2:]:
+        _, block, alone = _event_block(method, changes, EVENTS[:1], end=6.0)
+        assert all(traj.events["flip"].count >= 1 for traj in alone) and np.all(block.events["event_flip_count"] >= 1)
+    for kernel in (dop853_advance, taylor_advance, scan_call, _start_whole):
+        constants = [sig for sig in kernel.signatures if any(isinstance(arg, types.IntegerLiteral) for arg in sig)]
+        assert kernel.signatures and not constants, (kernel, constants)
+
+
 @pytest.mark.parametrize("method, changes", EVENT_METHODS, ids=[m for m, _ in EVENT_METHODS])
 def test_a_terminal_event_ends_each_case_as_it_ends_its_single_run(method, changes):
     """A terminal event (the second flip, each case at its own time, beside a counting event) ends

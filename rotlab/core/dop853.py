@@ -305,6 +305,7 @@ def dop853_local(y, t0, t1, grid, out, rtol, atol, max_steps, model, counters):
     grid[0], grid[1] = t0, t1
     for m in range(out.shape[1]):
         out[1, m] = math.nan
-    dop853_advance(y, t0, 0.0, grid, out, 1, t1, rtol, atol, max_steps, model, counters)
+    # (an int64, not the literal 1, which numba would compile the whole advance again for)
+    dop853_advance(y, t0, 0.0, grid, out, np.int64(1), t1, rtol, atol, max_steps, model, counters)
     for m in range(out.shape[1]):
         y[m] = out[1, m]

@@ -283,6 +283,7 @@ def taylor_local(y, t0, t1, grid, out, order, rtol, atol, max_steps, model, c0, 
     grid[0], grid[1] = t0, t1
     for m in range(out.shape[1]):
         out[1, m] = math.nan
-    taylor_advance(y, t0, grid, out, 1, order, rtol, atol, max_steps, model, c0, T, lever_force, flags, counters)
+    # (an int64, not the literal 1, which numba would compile the whole advance again for)
+    taylor_advance(y, t0, grid, out, np.int64(1), order, rtol, atol, max_steps, model, c0, T, lever_force, flags, counters)
     for m in range(out.shape[1]):
         y[m] = out[1, m]

@@ -191,7 +191,8 @@ def dop853_case(y, times, rows, rtol, atol, max_steps, chunk, model, counted, cl
     if open_events(events, times, rows, fault, watch) == 0:  # an event's formula is not finite at the first sample: the case ends there
         return OK, 1
     n, solver, chunk = times.shape[0], (rtol, atol, max_steps), chunk_steps(events, chunk)
-    code, i, t, h, attempts, lo, hi = OK, 1, times[0], 0.0, 0, 0, min(n, WINDOW + 1)
+    # (i an int64 from the start: a literal 1 would have numba compile ``scan_call`` for it too)
+    code, i, t, h, attempts, lo, hi = OK, np.int64(1), times[0], 0.0, 0, 0, min(n, WINDOW + 1)
     while i < n and attempts < max_steps:
         before, start, budget = counted[0] + counted[1], t, min(chunk, max_steps - attempts)
         code, j, t, h = dop853_advance(y, t, h, times[lo:hi], rows[lo:hi], i - lo, times[hi - 1], rtol, atol, budget, model, counted)
@@ -254,7 +255,7 @@ def dop853_ensemble(y0, times, rtol, atol, max_steps, chunk, model, expressions,
     """``fixed_step_ensemble`` for ``dop853`` (``counters[b]``: accepted, rejected, evaluations;
     ``clocks[b]``: ``dop853_case``'s clock; ``grids``: ``thread_grids(n)``, a case's whole grid)."""
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, 3)
+        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, np.int64(3))
         watch = event_scratch(events, STATE_SIZE)
         code, i = dop853_case(y, times, rows, rtol, atol, max_steps, chunk, mine, counted, clock, events, found[b], fault[b], watch)
         store_row(counters, b, counted)
@@ -272,7 +273,7 @@ def taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, model, c0, 
         return OK, 1
     n, chunk = times.shape[0], chunk_steps(events, chunk)
     solver = (order, rtol, atol, max_steps, c0, T, lever_force, flags)
-    code, i, t, lo, hi = OK, 1, times[0], 0, min(n, WINDOW + 1)
+    code, i, t, lo, hi = OK, np.int64(1), times[0], 0, min(n, WINDOW + 1)  # (as ``dop853_case``)
     while i < n and counted[0] < max_steps:
         before, start, budget = counted[0], t, min(chunk, max_steps - counted[0])
         code, j, t = taylor_advance(y, t, times[lo:hi], rows[lo:hi], i - lo, order, rtol, atol, budget, model, c0, T, lever_force, flags,
@@ -296,7 +297,7 @@ def taylor_ensemble(y0, times, order, rtol, atol, max_steps, chunk, model, expre
     lever_force, flags; ``counters[b, 0]``: steps; ``clocks[b]``: ``taylor_case``'s clock;
     ``grids``: ``thread_grids(n)``)."""
     for b in prange(y0.shape[0]):
-        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, 1)
+        y, rows, mine, counted, folded, count, clock = _start_whole(y0, b, grids[get_thread_id()], model, expressions, np.int64(1))
         watch = event_scratch(events, STATE_SIZE)
         code, i = taylor_case(y, times, rows, order, rtol, atol, max_steps, chunk, mine, c0, T, lever_force, flags, counted, clock, events,
                               found[b], fault[b], watch)
