@@ -256,19 +256,20 @@ def test_the_api_honours_the_files_device_and_a_gpu_failure_is_one_line(tmp_path
     assert lines[0] == "rotlab: error: the GPU run failed: MemoryError: cuMemAlloc results in CUDA_ERROR_OUT_OF_MEMORY", lines
 
 
-def test_the_gpu_benchmark_runs_without_rotlabs_other_dependencies(tmp_path):
+def test_the_gpu_benchmark_runs_without_rotlabs_other_dependencies():
     """benchmarks/bench_gpu.py in the simulator: every row's steps and last states equal the CPU's
     run alone, and it imported neither pydantic, rerun nor typer (a bare GPU machine has none), nor
-    rotlab's configuration models (its formula row parses a formula with the parser alone).  With
-    its own numba cache, as a bare machine's: loading a cache index that other tests filled (rk4's
-    entries for a Python torque's model) unpickles their types, which imports the configuration."""
+    rotlab's configuration models (its formula row parses a formula with the parser alone).  On
+    the numba cache the other tests filled: loading a kernel's cache index unpickles every type in
+    it, so this also checks that each is declared where numpy alone is imported (a Python torque's
+    ``UserTorque`` among them, ``rotlab.core.model``); and the kernels it shares with them load."""
     result = _python("""
         import runpy, sys
         sys.argv = ["bench_gpu.py", "--cases", "2", "--dop853-cases", "2", "--check", "2", "--repeats", "1"]
         runpy.run_path("benchmarks/bench_gpu.py", run_name="__main__")
         loaded = sorted(m for m in ("pydantic", "rerun", "typer", "rotlab.config.models", "rotlab.scene.scene") if m in sys.modules)
         print("loaded:", loaded)
-    """, {**SIMULATOR, "NUMBA_CACHE_DIR": str(tmp_path / "numba")})
+    """, SIMULATOR)
     assert result.returncode == 0, result.stderr[-3000:]
     rows = [line for line in result.stdout.splitlines() if line.startswith(("| rk4", "| dmv", "| dop853"))]
     assert len(rows) == 4 and any(line.startswith("| rk4-formula") for line in rows) and all(line.rstrip().endswith("| yes | yes |") for line in rows), result.stdout

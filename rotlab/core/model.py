@@ -1,12 +1,13 @@
 """What a kernel receives of a scene, as one value: the ``Model`` (Euler coefficients, load
-breakpoints, the load groups as arrays, each None when the scene has none) and its formula
-groups.  Built by ``rotlab.scene.loads.build_model``; read by ``rotlab.core.torques`` alone.
-Plain NamedTuples of arrays: importing them needs numpy only (``benchmarks/bench_gpu.py`` builds
-a model by hand on a machine without rotlab's other dependencies)."""
+breakpoints, the load groups as arrays, each None when the scene has none), its formula
+groups and a Python torque.  Built by ``rotlab.scene.loads.build_model``; read by
+``rotlab.core.torques`` alone.  Plain NamedTuples of arrays: importing them needs numpy only
+(``benchmarks/bench_gpu.py`` builds a model by hand on a machine without rotlab's other
+dependencies)."""
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -39,6 +40,18 @@ class Drives(NamedTuple):
     axes: np.ndarray  # (n, 3) unit axes, principal frame
 
 
+class UserTorque(NamedTuple):
+    """A Python torque (``rotlab.scene.user_torque``): fn(t, q, omega) → (Mx, My, Mz) compiled by
+    numba, q = Λ (4,) and omega (3,) in the user's body frame, M in ``frame`` (BODY: the user's
+    body axes, SPACE).  Declared here, with the model, so that loading a kernel's cache index
+    (which holds this type) imports numpy alone."""
+
+    fn: Any  # numba cfunc of ``rotlab.scene.user_torque.USER_SIGNATURE``
+    frame: float
+    axes: np.ndarray  # (3, 3) principal axes in the user's body frame
+    axes_q: np.ndarray  # (4,) Λ of axes
+
+
 class Model(NamedTuple):
     """What a kernel needs of a scene, as one value: Euler coefficients, load breakpoints and
     the load groups, each None when the scene has none (it then compiles to nothing)."""
@@ -52,6 +65,6 @@ class Model(NamedTuple):
     table_v: np.ndarray | None
     damping: float | None
     expressions: Expressions | None
-    user: object | None  # a Python torque (``rotlab.scene.user_torque.UserTorque``)
+    user: UserTorque | None
     rotors: np.ndarray | None = None  # (3,) the constant rotors' momentum h (principal frame): the gyrostatic torque h × ω
     drives: Drives | None = None  # driven rotors: their momenta are state columns 8, 9, … (``Drives``)

@@ -6,11 +6,11 @@ from __future__ import annotations
 import threading
 import types as pytypes
 from collections import OrderedDict
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable
 
 import numpy as np
 
-from rotlab.core.model import USER_BUFFER
+from rotlab.core.model import USER_BUFFER, UserTorque
 from rotlab.core.quaternion import from_matrix
 from rotlab.scene.load_kinds import frame_code
 
@@ -23,16 +23,6 @@ def _user_signature():
 
 
 USER_SIGNATURE = _user_signature()  # (t, [λ0..λ3, ω0..ω2, M (3,)]) → M written
-
-
-class UserTorque(NamedTuple):
-    """A Python function compiled by numba, fn(t, q, omega) → (Mx, My, Mz): q = Λ (4,) and omega
-    (3,) in the user's body frame, M in ``frame`` (BODY: the user's body axes, SPACE)."""
-
-    fn: Any  # numba cfunc of USER_SIGNATURE
-    frame: float
-    axes: np.ndarray  # (3, 3) principal axes in the user's body frame
-    axes_q: np.ndarray  # (4,) Λ of axes
 
 
 def user_torque(fn: Callable, frame: str, axes: np.ndarray) -> UserTorque:
