@@ -260,9 +260,11 @@ def test_the_gpu_benchmark_runs_without_rotlabs_other_dependencies():
     """benchmarks/bench_gpu.py in the simulator: every row's steps and last states equal the CPU's
     run alone, and it imported neither pydantic, rerun nor typer (a bare GPU machine has none), nor
     rotlab's configuration models (its formula row parses a formula with the parser alone).  On
-    the numba cache the other tests filled: loading a kernel's cache index unpickles every type in
-    it, so this also checks that each is declared where numpy alone is imported (a Python torque's
-    ``UserTorque`` among them, ``rotlab.core.model``); and the kernels it shares with them load."""
+    the numba cache of the rotlab it imports (run from the repository's root: the checkout's, the
+    installed one in a development install), not one of its own: the kernels other tests compiled
+    there load.  Loading a kernel's cache index unpickles every type in it, so each is declared
+    where numpy alone is imported (a Python torque's ``UserTorque`` in ``rotlab.core.model``); an
+    index written before it moved there names the configuration's module, and fails this once."""
     result = _python("""
         import runpy, sys
         sys.argv = ["bench_gpu.py", "--cases", "2", "--dop853-cases", "2", "--check", "2", "--repeats", "1"]
